@@ -1,0 +1,46 @@
+# splatlab: `make demo` and `make test` set themselves up on a fresh machine.
+PY      ?= python3
+VENV    := .venv
+VPY     := $(VENV)/bin/python
+STAMP   := $(VENV)/.installed
+LLVM    := $(VENV)/.llvm-ok
+# PoCL keeps compiled kernels here; Numba its compiled loops.
+export POCL_CACHE_DIR ?= $(CURDIR)/.cache/pocl
+export NUMBA_CACHE_DIR ?= $(CURDIR)/.cache/numba
+
+.PHONY: demo test test-slow bench doctor clean setup
+
+setup: $(STAMP) $(LLVM)
+
+$(STAMP): pyproject.toml
+	test -x $(VPY) || $(PY) -m venv $(VENV)
+	$(VPY) -m pip install --quiet --upgrade pip
+	$(VPY) -m pip install --quiet -e '.[test]'
+	touch $@
+
+# Dr.Jit's LLVM backend needs libLLVM >= 16; Debian bookworm ships 14/15 by default.
+$(LLVM): $(STAMP)
+	@if ! $(VPY) -m lab.llvm_check >/dev/null 2>&1; then \
+	  echo "Dr.Jit cannot find LLVM >= 16: installing Debian's libllvm19"; \
+	  (apt-get install -y libllvm19 || (apt-get update && apt-get install -y libllvm19)) >/dev/null; \
+	fi
+	$(VPY) -m lab.llvm_check
+	touch $@
+
+demo: setup
+	$(VENV)/bin/splatlab demo
+
+test: setup
+	$(VPY) -m pytest -q
+
+test-slow: setup
+	$(VPY) -m pytest -q -m slow
+
+bench: setup
+	$(VENV)/bin/splatlab bench all
+
+doctor: setup
+	$(VENV)/bin/splatlab doctor
+
+clean:
+	rm -rf .cache reports/demo

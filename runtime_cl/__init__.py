@@ -1,0 +1,1 @@
+"""splatlab's OpenCL runtime library: numpy + pyopencl only (never lab, mitsuba or drjit)."""

@@ -1,0 +1,233 @@
+"""Labelled-pixel and plain RGB EXR files (``OpenEXR.File`` API), written atomically.
+
+A labelled-pixel EXR (DESIGN.md contract) holds float32 channels ``R, G, B`` (linear radiance),
+``A`` (coverage), ``Z`` (camera-space planar depth in metres along the optical axis; ``inf`` for
+background at infinity) and optional extras (``motion.X``, ``lens.U``, ``layer0.R``, ...), plus the
+header string attribute ``splatlab.camera`` holding the camera as JSON. Reading validates all of
+it and raises :class:`~lab.errors.UserError` naming the file and the fix.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+
+from runtime_cl.thin_lens import ThinLens
+
+from .errors import UserError
+
+CAMERA_ATTR = "splatlab.camera"
+FORMAT_ATTR = "splatlab.format"
+FORMAT = "labelled-pixels/1"
+CORE = ("R", "G", "B", "A", "Z")
+
+
+@dataclass(frozen=True)
+class LabelledImage:
+    """A labelled-pixel image in memory.
+
+    Parameters
+    ----------
+    rgb : (H, W, 3) float32
+        Linear radiance.
+    alpha : (H, W) float32
+        Coverage in [0, 1].
+    depth : (H, W) float32
+        Camera-space planar depth in metres (> 0, ``inf`` for background).
+    camera : dict
+        The ``splatlab.camera`` JSON object, e.g. ``{"lens": "thin", "focal_length_mm": 50, ...}``.
+    extra : dict of str -> (H, W) float32
+        Further channels by their EXR names.
+    """
+
+    rgb: np.ndarray
+    alpha: np.ndarray
+    depth: np.ndarray
+    camera: dict
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        h, w = self.depth.shape
+        if self.rgb.shape != (h, w, 3) or self.alpha.shape != (h, w):
+            raise ValueError(f"LabelledImage: rgb {self.rgb.shape}, alpha {self.alpha.shape} and depth "
+                             f"{self.depth.shape} must be (H, W, 3), (H, W), (H, W)")
+        for name, ch in self.extra.items():
+            if name in CORE or ch.shape != (h, w):
+                raise ValueError(f"LabelledImage: extra channel {name!r} must be (H, W) and not one of {CORE}")
+
+    @property
+    def height(self) -> int:
+        return self.depth.shape[0]
+
+    @property
+    def width(self) -> int:
+        return self.depth.shape[1]
+
+
+def _check_shutter(data: dict, source: str):
+    shutter = data.get("shutter", [0.0, 1.0])
+    ok = (isinstance(shutter, list) and len(shutter) == 2
+          and all(isinstance(t, (int, float)) and math.isfinite(t) for t in shutter) and shutter[0] <= shutter[1])
+    if not ok:
+        raise UserError(f"{source}: shutter = {shutter!r} must be [open, close] with open <= close")
+
+
+def _check_pinhole(data: dict, source: str):
+    unknown = sorted(set(data) - {"lens", "fov_x_deg", "shutter"})
+    if unknown:
+        raise UserError(f"{source}: unknown key(s) {unknown} for a pinhole; known: fov_x_deg, shutter")
+    fov = data.get("fov_x_deg")
+    if not (isinstance(fov, (int, float)) and 0 < fov < 180):
+        raise UserError(f"{source}: fov_x_deg = {fov!r} must be a number of degrees in (0, 180)")
+
+
+# One validator per lens model (thick lenses register theirs here).
+CAMERA_VALIDATORS = {"thin": lambda data, source: ThinLens.from_json(data, source),
+                     "pinhole": _check_pinhole}
+
+
+def validate_camera(data, source: str) -> dict:
+    """Check a ``splatlab.camera`` JSON object; return it unchanged or raise naming ``source``."""
+    if not isinstance(data, dict):
+        raise UserError(f"{source}: the camera must be a JSON object, got {data!r}")
+    lens = data.get("lens")
+    if lens not in CAMERA_VALIDATORS:
+        raise UserError(f"{source}: lens = {lens!r} is not known; use one of {sorted(CAMERA_VALIDATORS)}")
+    CAMERA_VALIDATORS[lens](data, source)
+    _check_shutter(data, source)
+    return data
+
+
+def _atomic_write(path, header: dict, channels: dict):
+    """Write to a temporary file beside ``path`` then rename, so readers never see half a file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **header}
+    chans = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        with OpenEXR.File(header, chans) as exr:
+            exr.write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_labelled(path, image: LabelledImage):
+    """Write a labelled-pixel EXR atomically (float32 channels, ZIP compression)."""
+    validate_camera(image.camera, f"{path}: camera to write")
+    channels = {"R": image.rgb[..., 0], "G": image.rgb[..., 1], "B": image.rgb[..., 2],
+                "A": image.alpha, "Z": image.depth, **image.extra}
+    header = {CAMERA_ATTR: json.dumps(image.camera, sort_keys=True), FORMAT_ATTR: FORMAT}
+    _atomic_write(path, header, channels)
+
+
+def write_rgb(path, rgb: np.ndarray, header: dict | None = None):
+    """Write an (H, W, 3) linear RGB image (a reference) as a float32 EXR, atomically.
+
+    ``header`` adds string attributes, e.g. ``{"splatlab.camera": json.dumps(...)}``.
+    """
+    rgb = np.asarray(rgb)
+    if rgb.ndim != 3 or rgb.shape[2] != 3:
+        raise ValueError(f"write_rgb: rgb must be (H, W, 3), got {rgb.shape}")
+    _atomic_write(path, dict(header or {}), {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
+
+
+def _open(path) -> tuple[dict, dict]:
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"{path}: no such file; check the path")
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as exr:
+            header = dict(exr.header())
+            channels = {name: ch.pixels for name, ch in exr.channels().items()}
+    except Exception as exc:  # noqa: BLE001 - OpenEXR raises RuntimeError for anything unreadable
+        raise UserError(f"{path}: not a readable OpenEXR file ({str(exc).splitlines()[0]}); "
+                        "re-export it as a scanline or tiled float EXR") from None
+    for name, pixels in channels.items():
+        if pixels.dtype not in (np.float16, np.float32):
+            raise UserError(f"{path}: channel {name} is {pixels.dtype}; use half or float channels")
+    return header, {name: np.asarray(p, dtype=np.float32) for name, p in channels.items()}
+
+
+def _require(path, channels: dict, names, hint: str):
+    missing = [n for n in names if n not in channels]
+    if missing:
+        raise UserError(f"{path}: missing channel(s) {missing} (has {sorted(channels)}); {hint}")
+
+
+def read_rgb(path) -> np.ndarray:
+    """Read the R, G, B channels of an EXR as (H, W, 3) float32."""
+    _, channels = _open(path)
+    _require(path, channels, "RGB", "write the image with R, G and B channels")
+    return np.stack([channels[c] for c in "RGB"], axis=-1)
+
+
+def _check_depth(path, z: np.ndarray):
+    bad = ~(z > 0)  # NaN compares false, so it counts as bad
+    if np.any(bad):
+        y, x = np.argwhere(bad)[0]
+        raise UserError(f"{path}: {int(bad.sum())} pixel(s) with NaN or non-positive depth Z, first at "
+                        f"(x={x}, y={y}) Z={z[y, x]}; Z must be planar camera depth in metres > 0 "
+                        "(inf for background at infinity): fix the renderer's depth output")
+
+
+def _header_camera(path, header: dict) -> dict:
+    raw = header.get(CAMERA_ATTR)
+    if raw is None:
+        raise UserError(f"{path}: no '{CAMERA_ATTR}' header, so the lens is unknown; pass the camera "
+                        "with --camera FILE.toml (a file with a [camera] table)")
+    if isinstance(raw, bytes):
+        raw = raw.decode("utf-8", "replace")
+    try:
+        data = json.loads(raw)
+    except (TypeError, json.JSONDecodeError) as exc:
+        raise UserError(f"{path}: the '{CAMERA_ATTR}' header is not JSON ({exc}); pass the camera "
+                        "with --camera FILE.toml") from None
+    return validate_camera(data, f"{path} header '{CAMERA_ATTR}'")
+
+
+def read_labelled(path, camera: dict | None = None) -> LabelledImage:
+    """Read and validate a labelled-pixel EXR.
+
+    Parameters
+    ----------
+    path : str or Path
+        The EXR file.
+    camera : dict, optional
+        Camera JSON that overrides the ``splatlab.camera`` header (``--camera FILE.toml``; build it
+        with ``lab.scene.load_camera(FILE).camera_json()``). Needed when the header is missing.
+
+    Returns
+    -------
+    LabelledImage
+        ``A`` defaults to 1 (full coverage) when the file has no A channel.
+    """
+    header, channels = _open(path)
+    fmt = header.get(FORMAT_ATTR, FORMAT)
+    if fmt != FORMAT:
+        raise UserError(f"{path}: {FORMAT_ATTR} = {fmt!r}, this version reads {FORMAT!r}; "
+                        "re-render the input with this splatlab")
+    _require(path, channels, "RGB", "a labelled-pixel EXR needs linear R, G, B radiance")
+    if "Z" not in channels:
+        raise UserError(f"{path}: an EXR without Z (has {sorted(channels)}); the splatting runtime "
+                        "needs per-pixel depth: render the input with `splatlab input SCENE` or add a Z "
+                        "channel (planar camera depth in metres)")
+    z = channels["Z"]
+    _check_depth(path, z)
+    if camera is not None:
+        camera = validate_camera(camera, f"{path}: --camera override")
+    else:
+        camera = _header_camera(path, header)
+    rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
+    alpha = channels.get("A", np.ones_like(z))
+    extra = {k: v for k, v in channels.items() if k not in CORE}
+    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=camera, extra=extra)

@@ -1,0 +1,8 @@
+"""PSF models, one module each, registered by name: ``get_model("simple_lens")``.
+
+Importing this package registers every model (and loads Dr.Jit).
+"""
+from lab.psf_tracing.models.base import PSFModel, get_model, load_model, model_names, register_model
+from lab.psf_tracing.models import simple_lens  # noqa: F401  (registers "simple_lens")
+
+__all__ = ["PSFModel", "get_model", "load_model", "model_names", "register_model"]

@@ -1,0 +1,147 @@
+"""SimpleLens (LSR18 section 5.1, Tbl. 1): thin-lens depth of field, ns = 1, monochrome.
+
+The PSF space is the magnitude of the circle-of-confusion radius in pixels, over [0, max_coc_px],
+power-remapped with beta = 2 on a nested grid of 100 samples. In CoC space the PSF does not depend
+on the lens, so one canonical thin lens traces all of them: each ray takes its CoC radius r from
+the cell's box (pre-filtering), the object depth whose CoC is -r (the near side of the focus
+plane, which exists for every r), a point of the aperture, and the physical path
+point -> aperture -> thin lens -> sensor, binned in image orientation.
+
+On the near side the image PSF is the aperture rotated by 180 degrees; for the circle that is the
+same disc. (Odd-bladed apertures would need the sign of the CoC as a coordinate.)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+from drjit.llvm import Array2f
+
+from lab.errors import UserError
+from lab.optics.aperture import Aperture, make_aperture
+from lab.optics.thin_lens import ThinLens
+from lab.psf_tracing.models.base import PSFModel, register_model
+from lab.psf_tracing.space import NestedGrid
+from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH, RayHits
+
+__all__ = ["SimpleLens", "SimpleLensConfig", "PSF_MARGIN_PX", "min_psf_resolution"]
+
+# Empty border around the largest CoC: one pixel for hits on the support edge that round outward,
+# one so the Laplacian (3x3 stencil) of the PSF stays inside the image.
+PSF_MARGIN_PX = 2
+
+
+def min_psf_resolution(max_coc_px: float) -> int:
+    """Smallest R whose image, centred at R//2, holds a CoC of radius ``max_coc_px`` plus the margin."""
+    return 2 * (math.ceil(max_coc_px) + PSF_MARGIN_PX) + 1
+
+
+def _positive(name, value, integer=False, zero_ok=False):
+    kinds = (int,) if integer else (int, float)
+    ok = (isinstance(value, kinds) and not isinstance(value, bool) and math.isfinite(value)
+          and (value >= 0 if zero_ok else value > 0))
+    if not ok:
+        what = "an integer" if integer else "a finite number"
+        raise UserError(f"{name} = {value!r}: must be {what} {'>= 0' if zero_ok else '> 0'}")
+
+
+@dataclass(frozen=True)
+class SimpleLensConfig:
+    """Settings of the SimpleLens model (a scene's ``[psf.simple_lens]`` table).
+
+    Parameters
+    ----------
+    max_coc_px : float
+        Largest |CoC radius| in pixels the database covers (> 0); the scene decides it.
+    samples : int, default 100
+        Minimum number of PSF samples (cells of the nested grid; LSR18: 100).
+    beta : float, default 2.0
+        Power-remapping exponent (> 0; LSR18: 2.0): more cells at small CoC.
+    psf_resolution : int, default 512
+        R, the PSF image edge in pixels; must hold 2 (max_coc_px + margin) + 1 pixels.
+    rays_per_psf : int, default 2**24
+        Rays traced per PSF (LSR18 used 700 M on a GPU).
+    rays_per_launch : int, default 2**22
+        Rays per Dr.Jit launch, bounding memory (1 .. 2**30).
+    density : float, default 1.0
+        Relative spreadlet density for the sparsifier (> 0; 1 = its default).
+    seed : int, default 0
+        Random seed (>= 0); same seed, same PSFs bitwise.
+    aperture : str, default "circle"
+        Aperture shape (see :func:`lab.optics.aperture.aperture_names`).
+    lens_focal_length_mm, lens_f_number, lens_focus_distance_m, lens_sensor_width_mm : float
+        The canonical thin lens (defaults 50 mm, f/2, 2 m, 36 mm). The PSFs do not depend on it
+        beyond rounding; it only makes the traced path physical.
+    lens_width_px : int, default 1920
+        Image width in pixels across the canonical sensor (sets the pixel size).
+    """
+
+    max_coc_px: float
+    samples: int = 100
+    beta: float = 2.0
+    psf_resolution: int = 512
+    rays_per_psf: int = 2 ** 24
+    rays_per_launch: int = 2 ** 22
+    density: float = 1.0
+    seed: int = 0
+    aperture: str = "circle"
+    lens_focal_length_mm: float = 50.0
+    lens_f_number: float = 2.0
+    lens_focus_distance_m: float = 2.0
+    lens_sensor_width_mm: float = 36.0
+    lens_width_px: int = 1920
+
+    def __post_init__(self):
+        for name in ("max_coc_px", "beta", "density"):
+            _positive(name, getattr(self, name))
+        for name in ("samples", "psf_resolution", "rays_per_psf", "rays_per_launch", "lens_width_px"):
+            _positive(name, getattr(self, name), integer=True)
+        _positive("seed", self.seed, integer=True, zero_ok=True)
+        if self.rays_per_launch > MAX_RAYS_PER_LAUNCH:
+            raise UserError(f"rays_per_launch = {self.rays_per_launch}: at most {MAX_RAYS_PER_LAUNCH}")
+        need = min_psf_resolution(self.max_coc_px)
+        if self.psf_resolution < need:
+            raise UserError(
+                f"psf_resolution = {self.psf_resolution} cannot hold a CoC of radius max_coc_px = "
+                f"{self.max_coc_px} plus a {PSF_MARGIN_PX}-pixel margin around the centre pixel; "
+                f"use psf_resolution >= {need} (or a smaller max_coc_px)")
+        make_aperture(self.aperture)
+        try:
+            self.lens
+        except UserError as exc:
+            raise UserError(f"canonical lens (lens_* keys): {exc}") from None
+
+    @property
+    def lens(self) -> ThinLens:
+        """The canonical thin lens."""
+        return ThinLens(focal_length_mm=self.lens_focal_length_mm, f_number=self.lens_f_number,
+                        focus_distance_m=self.lens_focus_distance_m,
+                        sensor_width_mm=self.lens_sensor_width_mm)
+
+
+@register_model("simple_lens")
+class SimpleLens(PSFModel):
+    """Thin-lens DoF PSFs indexed by |CoC radius| in pixels (LSR18's SimpleLens)."""
+
+    Config = SimpleLensConfig
+    symmetries = ("rotation",)  # the disc is rotation invariant: no angle dimension
+    channels = 1
+
+    def __init__(self, config: SimpleLensConfig):
+        super().__init__(config)
+        self.lens: ThinLens = config.lens
+        self.aperture: Aperture = make_aperture(config.aperture)
+
+    @cached_property
+    def grid(self) -> NestedGrid:
+        c = self.config
+        return NestedGrid.for_samples(c.samples, (c.beta,), ((0.0, c.max_coc_px),), ("coc_radius_px",))
+
+    def rays(self, coords: list, rng) -> RayHits:
+        """Per ray: |CoC| r (pixels) -> near-side depth -> aperture point -> sensor, image pixels."""
+        width = self.config.lens_width_px
+        inv_depth = self.lens.inv_depth_for_coc_px(-coords[0], width)
+        u = Array2f(rng.next_float32(), rng.next_float32())
+        h = self.aperture.sample(u) * self.lens.aperture_radius_m
+        return RayHits(self.lens.psf_offset_px(h, inv_depth, width))

@@ -1,0 +1,121 @@
+"""Implementations of the ``splatlab`` subcommands (argument parsing lives in :mod:`lab.cli`)."""
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+from .errors import UserError
+
+
+def _say(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def cmd_plan(args) -> int:
+    from .pipeline import load_scene_and_plan
+
+    _, plan = load_scene_and_plan(args.scene)
+    print(plan.describe())
+    return 0
+
+
+def cmd_precompute(args) -> int:
+    from .pipeline import build_databases, inputs_and_reference, load_scene_and_plan
+
+    scene, plan = load_scene_and_plan(args.scene)
+    if not plan.psf_models:
+        print(f"{args.scene}: the plan needs no PSF database (see `splatlab plan {args.scene}`)")
+        return 0
+    # The scene's CoC range comes from its labelled-pixel input (cached like every render).
+    image, _, _ = inputs_and_reference(scene, plan)
+    for name, result in build_databases(scene, plan, image, force=args.force).items():
+        state = "reused" if result.reused else f"built in {result.seconds:.1f} s"
+        print(f"{name}: {result.path} ({state})")
+        if args.out:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(result.path, args.out)
+            print(f"{name}: copied to {args.out}")
+    return 0
+
+
+def cmd_reference(args) -> int:
+    from .exr_io import write_labelled, write_rgb
+    from .pipeline import default_out_dir, inputs_and_reference, load_scene_and_plan
+
+    scene, plan = load_scene_and_plan(args.scene)
+    out = args.out_dir or default_out_dir(scene)
+    out.mkdir(parents=True, exist_ok=True)
+    image, reference, _ = inputs_and_reference(scene, plan)
+    write_labelled(out / "input.exr", image)
+    write_rgb(out / "reference.exr", reference)
+    print(f"input (labelled pixels): {out / 'input.exr'}\nreference: {out / 'reference.exr'}")
+    return 0
+
+
+def cmd_render(args) -> int:
+    from runtime_cl.database import SpreadletDatabase
+    from runtime_cl.psf_coords import psf_coords
+    from runtime_cl.render import Renderer
+    from runtime_cl.thin_lens import ThinLens
+
+    from .exr_io import write_rgb
+    from .pipeline import read_input
+
+    image = read_input(args.input, args.camera)
+    db = SpreadletDatabase.load(args.db)
+    camera = ThinLens.from_json(image.camera, f"{args.input} camera")
+    coords = psf_coords(camera, image.depth, db)
+    rendered, timing = Renderer(db).render(image.rgb, coords, args.method)
+    write_rgb(args.out, rendered[..., :3])
+    print(f"{args.out}: {args.method}, {timing['kernel_ms']:.1f} ms kernels + "
+          f"{timing['integrate_ms']:.1f} ms integration (+{timing['compile_ms']:.0f} ms kernel builds)")
+    return 0
+
+
+def _report(scene_path, out_dir, baseline) -> int:
+    from .pipeline import run_report
+
+    report = run_report(scene_path, out_dir, baseline)
+    out = Path(out_dir) if out_dir else Path("reports") / report["scene"]["name"]
+    for name, m in report["methods"].items():
+        print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
+    print(f"report: {out.resolve() / 'index.html'}\n        {out.resolve() / 'report.json'}")
+    if report.get("regressions"):
+        _say("regressions against the baseline:\n  " + "\n  ".join(report["regressions"]))
+        return 1
+    return 0
+
+
+def cmd_report(args) -> int:
+    return _report(args.scene, args.out_dir, args.baseline)
+
+
+def cmd_demo(args) -> int:
+    from .cli import DEMO_SCENE
+
+    return _report(DEMO_SCENE, None, None)
+
+
+def cmd_bench(args) -> int:
+    from .bench import run_bench
+
+    for path in run_bench(args.what, args.scene, args.repeats):
+        print(f"benchmark: {path}")
+    return 0
+
+
+def cmd_db(args) -> int:
+    from runtime_cl.database import SpreadletDatabase
+
+    db = SpreadletDatabase.load(args.file)
+    print(json.dumps(db.info(), indent=2))
+    return 0
+
+
+def cmd_doctor(args) -> int:
+    from .doctor import diagnose
+
+    problems = diagnose(print)
+    return 1 if problems else 0

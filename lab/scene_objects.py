@@ -37,6 +37,11 @@ def _check_colour(key, value, where=""):
         raise UserError(f"{where}{key} = {list(value)}: colour components must be finite and >= 0")
 
 
+def _check_weight(value):
+    if not (math.isfinite(value) and value > 0):
+        raise UserError(f"sampling_weight = {value} must be a finite number > 0")
+
+
 def _only(obj, allowed: set[str], kind: str):
     """Keys set (not None) beyond ``allowed`` for this type are errors, not silently ignored."""
     extra = sorted(f.name for f in fields(obj) if f.name not in allowed | {"type"}
@@ -47,17 +52,25 @@ def _only(obj, allowed: set[str], kind: str):
 
 @dataclass(frozen=True)
 class Checkerboard:
-    """Two-colour checkerboard texture; ``scale`` repeats it: 2 * scale squares across the uv range."""
+    """Two-colour checkerboard texture over a shape's uv range [0, 1]^2.
+
+    ``scale`` (one number, or ``[su, sv]`` for non-square shapes) repeats it: 2 * scale squares
+    across u (and v), e.g. a 40 m x 10 m wall with ``scale = [40, 10]`` has 0.5 m squares.
+    """
 
     color0: Vec3
     color1: Vec3
-    scale: float = 1.0
+    scale: float | tuple[float, float] = 1.0
 
     def __post_init__(self):
         _check_colour("color0", self.color0)
         _check_colour("color1", self.color1)
-        if not self.scale > 0:
+        if not all(math.isfinite(v) and v > 0 for v in self.uv_scale()):
             raise UserError(f"scale = {self.scale} must be > 0")
+
+    def uv_scale(self) -> tuple[float, float]:
+        """(su, sv): how many times the two-square pattern repeats along u and v."""
+        return (self.scale, self.scale) if isinstance(self.scale, float) else self.scale
 
 
 @dataclass(frozen=True)
@@ -90,12 +103,18 @@ class Material:
 
 @dataclass(frozen=True)
 class AreaLight:
-    """``emitter = {radiance = [r, g, b]}`` on a shape: a diffuse area light (W m^-2 sr^-1)."""
+    """``emitter = {radiance = [r, g, b]}`` on a shape: a diffuse area light (W m^-2 sr^-1).
+
+    ``sampling_weight`` (default 1) is the relative chance that next-event estimation picks this
+    light; lower it for small lights that matter when seen directly (bokeh) but light little.
+    """
 
     radiance: Vec3
+    sampling_weight: float = 1.0
 
     def __post_init__(self):
         _check_colour("radiance", self.radiance)
+        _check_weight(self.sampling_weight)
 
 
 @dataclass(frozen=True)
@@ -160,7 +179,8 @@ class Shape:
 @dataclass(frozen=True)
 class Emitter:
     """``[[emitters]]``: ``constant`` (``radiance``), ``point`` (``position``, ``intensity`` W/sr)
-    or ``directional`` (``direction`` it travels, ``irradiance`` W/m^2)."""
+    or ``directional`` (``direction`` it travels, ``irradiance`` W/m^2); each with an optional
+    ``sampling_weight`` (see :class:`AreaLight`)."""
 
     type: str
     radiance: Vec3 | None = None
@@ -168,13 +188,15 @@ class Emitter:
     intensity: Vec3 | None = None
     direction: Vec3 | None = None
     irradiance: Vec3 | None = None
+    sampling_weight: float = 1.0
 
     def __post_init__(self):
         needs = {"constant": {"radiance"}, "point": {"position", "intensity"},
                  "directional": {"direction", "irradiance"}}
         if self.type not in needs:
             raise UserError(f"type = {self.type!r} is not an emitter; use one of {sorted(needs)}")
-        _only(self, needs[self.type], "type")
+        _only(self, needs[self.type] | {"sampling_weight"}, "type")
+        _check_weight(self.sampling_weight)
         missing = sorted(k for k in needs[self.type] if getattr(self, k) is None)
         if missing:
             raise UserError(f"a {self.type} emitter needs {missing}")

@@ -24,7 +24,7 @@ def _texture(m: Material, default=(0.5, 0.5, 0.5)):
     c = m.checkerboard
     mi = mitsuba()
     return {"type": "checkerboard", "color0": _rgb(c.color0), "color1": _rgb(c.color1),
-            "to_uv": mi.ScalarTransform4f().scale([c.scale, c.scale, 1.0])}
+            "to_uv": mi.ScalarTransform4f().scale([*c.uv_scale(), 1.0])}
 
 
 # One builder per material / emitter type (registered by name, as Mitsuba's plugins are).
@@ -41,6 +41,10 @@ EMITTERS = {
     "directional": lambda e: {"type": "directional", "direction": list(e.direction),
                               "irradiance": _rgb(e.irradiance)},
 }
+
+
+def _emitter(e) -> dict:
+    return {**EMITTERS[e.type](e), "sampling_weight": e.sampling_weight}
 BLACK = {"type": "diffuse", "reflectance": _rgb((0.0, 0.0, 0.0))}
 
 
@@ -49,7 +53,8 @@ def _shape(shape: Shape, material_ids: dict) -> dict:
     out = {"type": shape.type, "to_world": mi.ScalarTransform4f(shape.to_world_matrix().tolist())}
     out["bsdf"] = BLACK if shape.material is None else {"type": "ref", "id": material_ids[shape.material]}
     if shape.emitter is not None:
-        out["emitter"] = {"type": "area", "radiance": _rgb(shape.emitter.radiance)}
+        out["emitter"] = {"type": "area", "radiance": _rgb(shape.emitter.radiance),
+                          "sampling_weight": shape.emitter.sampling_weight}
     return out
 
 
@@ -96,5 +101,5 @@ def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
     for i, shape in enumerate(scene.shapes):
         out[f"shape_{i}"] = _shape(shape, material_ids)
     for i, emitter in enumerate(scene.emitters):
-        out[f"emitter_{i}"] = EMITTERS[emitter.type](emitter)
+        out[f"emitter_{i}"] = _emitter(emitter)
     return out

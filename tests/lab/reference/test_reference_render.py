@@ -1,0 +1,117 @@
+"""Mitsuba scene dicts, seeded render passes, the labelled input and the CoC range helper."""
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lab.exr_io import read_labelled, write_labelled
+from lab.reference.coc import CocRange, coc_range, depth_range
+from lab.reference.labelled import planar_depth, render_labelled
+from lab.reference.mitsuba_scene import scene_dict
+from lab.reference.render import pass_seeds, render_pinhole, render_reference, split_spp
+from lab.scene import load_scene
+
+SCENES = Path(__file__).resolve().parents[3] / "scenes"
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    return load_scene(SCENES / "tiny.toml")
+
+
+def small(scene, w, h):
+    return replace(scene, info=replace(scene.info, resolution=(w, h)))
+
+
+def test_scene_dict_sensors(tiny):
+    lens = tiny.camera.thin_lens()
+    thin = scene_dict(tiny, "scene", spp=8)["sensor"]
+    assert thin["type"] == "thinlens" and thin["fov_axis"] == "x"
+    assert thin["aperture_radius"] == pytest.approx(0.085 / 2 / 1.4)
+    assert thin["focus_distance"] == 2.0
+    assert thin["fov"] == pytest.approx(lens.fov_x_deg())
+    assert thin["film"]["rfilter"] == {"type": "box"} and thin["sampler"]["sample_count"] == 8
+    pin = scene_dict(tiny, "pinhole")["sensor"]
+    assert pin["type"] == "perspective" and "aperture_radius" not in pin
+    assert pin["fov"] == thin["fov"]
+    np.testing.assert_array_equal(np.array(pin["to_world"].matrix), np.array(thin["to_world"].matrix))
+    d = scene_dict(tiny)
+    assert sum(k.startswith("shape_") for k in d) == len(tiny.shapes)
+    assert d["shape_5"]["emitter"]["sampling_weight"] == pytest.approx(0.02)
+    assert d["shape_0"]["bsdf"] == {"type": "ref", "id": "material_1"}  # floor, sorted names
+    assert d["material_1"]["reflectance"]["type"] == "checkerboard"
+
+
+def test_split_spp_and_seeds():
+    assert split_spp(512, 1024, 1024) == [16] * 32
+    assert split_spp(100, 1024, 1024) == [16] * 6 + [4]
+    assert split_spp(64, 64, 64) == [64]
+    assert split_spp(10, 8, 8, pass_spp=3) == [3, 3, 3, 1]
+    with pytest.raises(ValueError):
+        split_spp(0, 8, 8)
+    seeds = pass_seeds(7, "reference", 32)
+    assert len(set(seeds)) == 32 and set(seeds).isdisjoint(pass_seeds(7, "input", 32))
+    assert seeds == pass_seeds(7, "reference", 32) and seeds != pass_seeds(8, "reference", 32)
+
+
+def test_reference_is_seeded_and_passes_average(tiny):
+    scene = small(tiny, 24, 24)
+    a = render_reference(scene, spp=8, pass_spp=4, progress=False)
+    b = render_reference(scene, spp=8, pass_spp=4, progress=False)
+    assert a.shape == (24, 24, 3) and a.dtype == np.float32
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)  # same seed, same image
+    c = render_reference(replace(scene, render=replace(scene.render, seed=8)), spp=8, pass_spp=4,
+                         progress=False)
+    assert np.abs(a - c).mean() > 1e-3  # another seed, another noise
+    # One pass of 32 and uneven passes (3 x 10 + 2) estimate the same image: without the small
+    # lights (rare, bright hits) the image means agree to ~1%.
+    lit = replace(scene, shapes=scene.shapes[:5])
+    one = render_reference(lit, spp=32, pass_spp=32, progress=False)
+    split = render_reference(lit, spp=32, pass_spp=3, progress=False)
+    assert split.mean() == pytest.approx(one.mean(), rel=0.03)
+
+
+def test_labelled_input_round_trip_and_coc_range(tiny, tmp_path):
+    scene = small(tiny, 32, 32)
+    im = render_labelled(scene, spp=4, progress=False)
+    assert im.rgb.shape == (32, 32, 3) and np.all(im.alpha == 1) and np.all(np.isfinite(im.depth))
+    assert im.camera == scene.camera.camera_json()
+    write_labelled(tmp_path / "input.exr", im)
+    back = read_labelled(tmp_path / "input.exr")
+    np.testing.assert_array_equal(back.depth, im.depth)
+    lens = scene.camera.thin_lens()
+    r = coc_range(back)
+    z0, z1 = depth_range(back)
+    assert (r.z_min_m, r.z_max_m) == (z0, z1) == (float(im.depth.min()), float(im.depth.max()))
+    assert r.coc_min_px == pytest.approx(float(lens.coc_radius_px(z0, 32)))
+    assert r.coc_max_px == pytest.approx(float(lens.coc_radius_px(z1, 32)))
+    assert r.coc_min_px < 0 < r.coc_max_px and r.max_abs_px == max(-r.coc_min_px, r.coc_max_px)
+    # Pinhole colour and the input colour come from the same seed stream and view.
+    np.testing.assert_allclose(render_pinhole(scene, spp=4, progress=False), im.rgb, rtol=1e-5, atol=1e-6)
+
+
+def test_coc_range_pinhole_and_infinity():
+    from lab.exr_io import LabelledImage
+
+    z = np.array([[1.0, np.inf]], np.float32)
+    rgb = np.zeros((1, 2, 3), np.float32)
+    pin = LabelledImage(rgb, np.ones((1, 2), np.float32), z, {"lens": "pinhole", "fov_x_deg": 40.0})
+    assert coc_range(pin) == CocRange(1.0, math.inf, 0.0, 0.0)
+    thin = replace(pin, camera={"lens": "thin", "focal_length_mm": 50.0, "f_number": 2.0,
+                                "focus_distance_m": 2.0})
+    r = coc_range(thin)
+    scale = 0.0125 * (0.05 * 2 / 1.95) * 2 / 0.036  # a v W / sensor width, W = 2 px
+    assert r.coc_max_px == pytest.approx(scale * 0.5) and r.coc_min_px == pytest.approx(-scale * 0.5)
+
+
+def test_demo_view_is_closed_and_its_coc_range_is_as_designed():
+    """Every demo pixel hits geometry; bokeh of ~32 px behind and ~51 px in front; max < 120."""
+    demo = load_scene(SCENES / "demo.toml")
+    z = planar_depth(demo)
+    assert z.shape == (1024, 1024) and np.all(np.isfinite(z))
+    lens = demo.camera.thin_lens()
+    r = lens.coc_radius_px(z, 1024)
+    assert 28 < r.max() < 36 and -56 < r.min() < -46
+    assert np.abs(r).max() < 120

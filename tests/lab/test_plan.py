@@ -1,0 +1,55 @@
+"""The plan: which effects, PSF models, references and runtime passes a scene calls for."""
+from pathlib import Path
+
+from lab.plan import make_plan
+from lab.scene import load_scene, parse_scene
+
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+
+
+def scene(camera, psf=None):
+    return parse_scene({"scene": {"name": "p", "resolution": [16, 8]},
+                        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **camera},
+                        "render": {"reference_spp": 32, "input_spp": 8},
+                        "emitters": [{"type": "constant", "radiance": [1, 1, 1]}],
+                        "psf": psf or {}}, "p.toml")
+
+
+THIN = {"model": "thin", "focal_length_mm": 50, "f_number": 2, "focus_distance_m": 3}
+PINHOLE = {"model": "pinhole", "fov_deg": 40}
+
+
+def test_thin_lens_plan():
+    plan = make_plan(scene(THIN))
+    assert plan.effects["dof"].startswith("thin (50 mm f/2")
+    assert plan.psf_models == ("simple_lens",)
+    assert [r.name for r in plan.references] == ["mitsuba_thinlens"]
+    assert "32 spp" in plan.references[0].detail
+    assert [i.name for i in plan.inputs] == ["pinhole_labelled"] and "8 spp" in plan.inputs[0].detail
+    assert plan.runtime_passes == ("spreadlets", "splat", "filter")
+    skipped = {s.name for s in plan.skipped}
+    assert {"motion blur", "participating medium", "chromatic aberration", "polygonal bokeh (MHU21)"} <= skipped
+    assert not any("PSF precompute" in s for s in skipped)
+
+
+def test_pinhole_plan_is_identity():
+    plan = make_plan(scene(PINHOLE, psf={"simple_lens": {}}))
+    assert plan.effects["dof"] == "none"
+    assert plan.psf_models == ()
+    assert [r.name for r in plan.references] == ["pinhole"]
+    assert plan.runtime_passes == ("identity",)
+    reasons = {s.name: s.detail for s in plan.skipped}
+    assert "delta" in reasons["PSF precompute and sparsify"]
+    assert "not needed" in reasons["[psf.simple_lens]"]  # given, but unused: said so, not silently dropped
+
+
+def test_describe_lists_everything():
+    text = make_plan(load_scene(SCENES / "demo.toml")).describe()
+    lines = text.splitlines()
+    assert lines[0] == "plan for scene 'demo' (" + str(SCENES / "demo.toml") + "), 1024x1024"
+    assert "PSF models to precompute: simple_lens" in lines
+    assert "runtime passes: spreadlets -> splat -> filter" in lines
+    assert any(line.strip().startswith("dof") and "85 mm f/1.4" in line for line in lines)
+    assert any("mitsuba_thinlens" in line and "512 spp" in line for line in lines)
+    assert any(line.startswith("  motion blur:") for line in lines)
+    assert "PSF models to precompute: none" in make_plan(scene(PINHOLE)).describe()

@@ -353,13 +353,14 @@ class DatabaseBuilder:
         pts = np.asarray(points).reshape(-1, 2)
         if pts.size and (not np.issubdtype(pts.dtype, np.integer) or np.abs(pts).max() > 32767):
             raise InputError(f"sample {i} points: need integer offsets with |d| <= 32767")
-        vals = np.asarray(values, dtype=np.float32).reshape(len(pts), -1)
+        vals = np.asarray(values, dtype=np.float32)
+        vals = vals[:, None] if vals.ndim == 1 else vals
         d = np.asarray(dense, dtype=np.float32)
         if d.ndim == 2:
             d = d[..., None]
-        if vals.shape[1] != self.channels or d.shape[2:] != (self.channels,):
-            raise InputError(f"sample {i}: values {vals.shape} / dense {d.shape} do not have "
-                             f"{self.channels} channel(s)")
+        if vals.shape != (len(pts), self.channels) or d.shape[2:] != (self.channels,):
+            raise InputError(f"sample {i}: values {vals.shape} / dense {d.shape} do not match "
+                             f"{len(pts)} point(s) with {self.channels} channel(s)")
         if d.ndim != 3 or d.shape[0] != d.shape[1] or d.shape[0] % 2 != 1:
             raise InputError(f"sample {i} dense crop: shape {d.shape}, need (2r+1, 2r+1[, channels])")
         stats = dict(stats or {})

@@ -1,0 +1,54 @@
+"""OpenCL device set-up: platform choice, program cache, messages when OpenCL is missing."""
+import pyopencl as cl
+import pytest
+
+import runtime_cl.device as device_mod
+from runtime_cl.device import get_device
+from runtime_cl.errors import InputError
+
+
+def test_default_device_is_pocl_and_shared():
+    dev = get_device()
+    assert dev is get_device()
+    info = dev.describe()
+    assert {"platform", "device", "device_version", "compute_units", "fp64"} <= set(info)
+    assert "portable computing language" in info["platform"].lower()
+    assert info["compute_units"] >= 1
+    assert dev.queue.properties & cl.command_queue_properties.PROFILING_ENABLE
+
+
+def test_program_is_built_once_per_options():
+    dev = get_device()
+    files = ("psf_space.cl", "psf_index.cl")
+    options = _grid_options() + ["-DDEVICE_TEST_TOKEN=1"]  # no other code builds with this option
+    p1, r1 = dev.program(files, options)
+    p2, r2 = dev.program(files, options)
+    assert p1 is p2
+    assert r1.built and r1.ms > 0.0
+    assert not r2.built and r2.ms == 0.0
+    p3, r3 = dev.program(files, _grid_options() + ["-DDEVICE_TEST_TOKEN=2"])
+    assert p3 is not p1 and r3.built
+    assert dev.compile_ms() >= r1.ms + r3.ms
+
+
+def _grid_options():
+    from runtime_cl.psf_space import NestedGrid
+    from runtime_cl.psf_space_cl import PsfSpaceTables
+
+    return PsfSpaceTables(NestedGrid(9, (2.0, 1.0), ((0, 1), (0, 1)), ("a", "b")), True).options
+
+
+def test_unknown_platform_override_lists_the_available_ones(monkeypatch):
+    monkeypatch.setenv("SPLATLAB_CL_PLATFORM", "no-such-platform-xyz")
+    with pytest.raises(InputError, match=r"SPLATLAB_CL_PLATFORM='no-such-platform-xyz'.*Portable"):
+        get_device()
+
+
+def test_no_opencl_platform_says_what_to_install(monkeypatch):
+    def none():
+        raise cl.LogicError("clGetPlatformIDs", cl.status_code.PLATFORM_NOT_FOUND_KHR, "no platforms")
+
+    monkeypatch.setattr(cl, "get_platforms", none)
+    monkeypatch.setattr(device_mod, "_DEVICES", {})
+    with pytest.raises(InputError, match="pip install pocl-binary-distribution"):
+        get_device()

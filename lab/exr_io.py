@@ -122,7 +122,16 @@ def _atomic_write(path, header: dict, channels: dict):
 
 
 def write_labelled(path, image: LabelledImage):
-    """Write a labelled-pixel EXR atomically (float32 channels, ZIP compression)."""
+    """Write a labelled-pixel EXR atomically (float32 channels, ZIP compression).
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination; parent directories are created. Written to a temporary file beside it and
+        renamed, so a reader never sees a half-written file.
+    image : LabelledImage
+        Its camera is validated first (see :func:`validate_camera`).
+    """
     validate_camera(image.camera, f"{path}: camera to write")
     channels = {"R": image.rgb[..., 0], "G": image.rgb[..., 1], "B": image.rgb[..., 2],
                 "A": image.alpha, "Z": image.depth, **image.extra}
@@ -165,7 +174,17 @@ def _require(path, channels: dict, names, hint: str):
 
 
 def read_rgb(path) -> np.ndarray:
-    """Read the R, G, B channels of an EXR as (H, W, 3) float32."""
+    """Read the R, G, B channels of an EXR (a reference image).
+
+    Returns
+    -------
+    (H, W, 3) float32
+
+    Raises
+    ------
+    UserError
+        Missing or unreadable file, missing R/G/B, integer channels.
+    """
     _, channels = _open(path)
     _require(path, channels, "RGB", "write the image with R, G and B channels")
     return np.stack([channels[c] for c in "RGB"], axis=-1)

@@ -104,7 +104,18 @@ DOF_RULES = {"thin": _thin, "pinhole": _pinhole}
 
 
 def make_plan(scene: Scene) -> Plan:
-    """Decide the effects, PSF models, references, inputs and runtime passes for ``scene``."""
+    """Decide the effects, PSF models, references, inputs and runtime passes for ``scene``.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene (:func:`lab.scene.load_scene`).
+
+    Returns
+    -------
+    Plan
+        ``plan.describe()`` is the text of ``splatlab plan SCENE``.
+    """
     rule = DOF_RULES[scene.camera.model](scene)
     r = scene.render
     skipped = list(rule["skipped"]) + [

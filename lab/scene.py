@@ -218,7 +218,20 @@ def _table(data: dict, key: str, source: str, kind=dict, default=None):
 
 
 def parse_scene(data: dict, source: str = "<scene>") -> Scene:
-    """Validate a scene given as a dict (parsed TOML); ``source`` names it in error messages."""
+    """Validate a scene given as a dict (parsed TOML, or :meth:`Scene.to_dict`).
+
+    Parameters
+    ----------
+    data : dict
+        Tables as in a scene file.
+    source : str
+        Names the scene in error messages (the file path for :func:`load_scene`).
+
+    Raises
+    ------
+    UserError
+        Unknown tables or keys, wrong types, bad values, undefined material names.
+    """
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise UserError(f"{source}: unknown table(s) {unknown}; known tables are {list(SECTIONS)}")
@@ -257,12 +270,39 @@ def _read_toml(path) -> dict:
 
 
 def load_scene(path) -> Scene:
-    """Read and validate a scene file; every error names the file, the table and the key."""
+    """Read and validate a scene file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML scene file, e.g. ``scenes/demo.toml``.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    UserError
+        Missing file, bad TOML, or any validation error; the message names the file, the table
+        and the key.
+    """
     return parse_scene(_read_toml(path), str(path))
 
 
 def load_camera(path) -> Camera:
-    """The ``[camera]`` table of a TOML file (a scene file or a camera-only file), for ``--camera``."""
+    """The ``[camera]`` table of a TOML file, for ``--camera FILE.toml``.
+
+    Parameters
+    ----------
+    path : str or Path
+        A scene file or a file holding only a ``[camera]`` table (other tables are ignored).
+
+    Returns
+    -------
+    Camera
+        Use ``load_camera(path).camera_json()`` as the EXR camera override.
+    """
     data = _read_toml(path)
     if "camera" not in data:
         raise UserError(f"{path}: no [camera] table; a --camera file needs one (see scenes/demo.toml)")

@@ -32,7 +32,18 @@ class CocRange:
 
 
 def depth_range(image) -> tuple[float, float]:
-    """(nearest, farthest) depth in metres of a :class:`LabelledImage` or a Z array (may be inf)."""
+    """Nearest and farthest depth of an image.
+
+    Parameters
+    ----------
+    image : LabelledImage or ndarray
+        A labelled-pixel image, or its Z array (metres, > 0, inf allowed).
+
+    Returns
+    -------
+    (z_min, z_max) : tuple of float
+        Metres; ``z_max`` is ``inf`` when background at infinity is visible.
+    """
     z = image.depth if isinstance(image, LabelledImage) else np.asarray(image)
     if z.size == 0:
         raise UserError("depth_range: the image has no pixels")
@@ -43,9 +54,19 @@ def depth_range(image) -> tuple[float, float]:
 
 
 def coc_range(image: LabelledImage, lens: ThinLens | None = None) -> CocRange:
-    """Signed CoC range over ``image`` for ``lens`` (default: the image's camera header).
+    """Signed CoC range in pixels over ``image``: what the PSF database must cover.
 
-    A pinhole camera has no defocus: the range is [0, 0].
+    Parameters
+    ----------
+    image : LabelledImage
+        Its Z and width (pixels) are used.
+    lens : ThinLens, optional
+        Default: the image's ``splatlab.camera``. A pinhole camera has no defocus: [0, 0].
+
+    Returns
+    -------
+    CocRange
+        ``max_abs_px`` is the largest |CoC| radius anywhere in the image.
     """
     z_min, z_max = depth_range(image)
     if lens is None and image.camera.get("lens") == "pinhole":

@@ -18,13 +18,37 @@ STREAMS = {"reference": 0, "input": 1}
 
 
 def pass_seeds(seed: int, stream: str, n_passes: int) -> list[int]:
-    """Distinct 32-bit Mitsuba seeds for each pass of one render stream (``reference``/``input``)."""
+    """Distinct 32-bit Mitsuba seeds, one per pass, for one render stream.
+
+    Parameters
+    ----------
+    seed : int
+        The scene's ``[render] seed``.
+    stream : {"reference", "input"}
+        Separate streams so the reference and the input never share noise.
+    n_passes : int
+    """
     states = np.random.SeedSequence([seed, STREAMS[stream]]).generate_state(n_passes)
     return [int(s) for s in states]
 
 
 def split_spp(spp: int, width: int, height: int, pass_spp: int | None = None) -> list[int]:
-    """Split ``spp`` into passes of ``pass_spp`` (default: memory-bounded) samples each."""
+    """Split ``spp`` samples per pixel into passes.
+
+    Parameters
+    ----------
+    spp : int
+        Total samples per pixel (>= 1).
+    width, height : int
+        Image size in pixels.
+    pass_spp : int, optional
+        Samples per pass; default: as many as fit in ``MAX_SAMPLES_PER_PASS`` samples.
+
+    Returns
+    -------
+    list of int
+        Full passes then the remainder, summing to ``spp``.
+    """
     if spp < 1:
         raise ValueError(f"spp = {spp} must be >= 1")
     if pass_spp is None:
@@ -36,7 +60,29 @@ def split_spp(spp: int, width: int, height: int, pass_spp: int | None = None) ->
 
 def render_passes(mi_scene, spp: int, seed: int, stream: str, pass_spp: int | None = None,
                   progress: bool = True, desc: str = "render") -> np.ndarray:
-    """Render a loaded Mitsuba scene with ``spp`` samples in seeded passes; (H, W, 3) float32."""
+    """Render a loaded Mitsuba scene with ``spp`` samples in seeded passes.
+
+    Parameters
+    ----------
+    mi_scene : mitsuba.Scene
+        From :func:`load`.
+    spp : int
+        Total samples per pixel.
+    seed : int
+        Scene seed; each pass gets its own from :func:`pass_seeds`.
+    stream : {"reference", "input"}
+    pass_spp : int, optional
+        See :func:`split_spp`.
+    progress : bool
+        Show a tqdm bar (samples per pixel done) on stderr.
+    desc : str
+        The bar's label.
+
+    Returns
+    -------
+    (H, W, 3) float32
+        The spp-weighted mean of the passes: the same estimator as one render of ``spp``.
+    """
     size = mi_scene.sensors()[0].film().size()
     chunks = split_spp(spp, int(size[0]), int(size[1]), pass_spp)
     total = None

@@ -50,7 +50,8 @@ class Camera:
     ----------
     model : {"pinhole", "thin"}
     position, look_at, up : (3,) float
-        Camera position and target in metres; ``up`` (default +y) fixes the roll.
+        Camera position and target in metres; ``up`` (default +y) fixes the roll. Mitsuba's
+        look-at frame is right-handed: looking along +z with up +y, world +x is on the image's left.
     focal_length_mm : float, optional
         Required for "thin"; for "pinhole" an alternative to ``fov_deg``.
     f_number, aperture_radius_mm : float, optional

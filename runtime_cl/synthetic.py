@@ -17,12 +17,10 @@ from .psf_space import NestedGrid
 
 
 def disc_psf(radius: float, supersample: int = 4) -> np.ndarray:
-    """Disc of ``radius`` pixels on a (2R+1)^2 crop, R = ceil(radius), summing to 1."""
+    """Disc of ``radius`` pixels on a (2R+1)^2 crop, R = ceil(radius), summing to 1 (1x1 if <= 0.5)."""
+    if radius <= 0.5:  # inside one pixel: a delta
+        return np.ones((1, 1))
     big = int(np.ceil(radius))
-    if radius <= 0.5:
-        psf = np.zeros((2 * big + 1, 2 * big + 1), np.float64)
-        psf[big, big] = 1.0
-        return psf
     sub = (np.arange(supersample) + 0.5) / supersample - 0.5
     c = np.arange(-big, big + 1)
     y = (c[:, None] + sub[None, :]).reshape(-1)

@@ -78,7 +78,7 @@ class ThinLens:
         z = np.asarray(z_m, dtype=np.float64)
         bad = ~(z > 0)  # catches NaN too
         if np.any(bad):
-            first = z[bad].flat[0]
+            first = float(z[bad].flat[0])
             raise InputError(f"depth Z = {first!r} at {int(bad.sum())} pixel(s): depths must be > 0 "
                              "metres (use inf for background at infinity)")
         return self.coc_scale_px(width_px) * (1.0 / self.focus_distance_m - 1.0 / z)

@@ -129,7 +129,7 @@ class BandSplatter:
         nbands = bands or self.default_bands(height)
         band_rows = -(-height // nbands)
         nbands = -(-height // band_rows)  # drop empty bands
-        band_floats = self.groups * (band_rows + 2 * pad) * wc * oc
+        band_floats = self.groups * (band_rows + 2 * pad) * wc * (4 if oc == 3 else 1)  # float4 pixels
         bands_buf = self._buffer("bands", nbands * band_floats * 4)
         counts_buf = self._buffer("counts", nbands * 16)
         canvas_buf = self._buffer("canvas", self.groups * hc * wc * oc * 4)

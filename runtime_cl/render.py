@@ -51,8 +51,7 @@ class Renderer:
                 self._wrappers[key] = GatherFilter(self.ddb, channels)
             else:
                 self._wrappers[key] = BandSplatter(self.ddb, channels, dense_all=method == "splat")
-        wrapper = self._wrappers[key]
-        return wrapper
+        return self._wrappers[key]
 
     def render(self, colour, coords, method: str = "spreadlets") -> tuple:
         """Render one image.
@@ -93,9 +92,9 @@ class Renderer:
         if not np.all(np.isfinite(colour)):
             raise InputError(f"colour: {int(np.count_nonzero(~np.isfinite(colour)))} value(s) are NaN "
                              "or infinite; fix the input image")
-        check_coords(self.db.grid, coords)
         if h * w == 0:
             raise InputError(f"colour: empty image {colour.shape}")
+        check_coords(self.db.grid, coords)
 
         builds_before = len(self.device.builds)
         wrapper = self._wrapper(method, ch)

@@ -151,3 +151,14 @@ def test_psf_larger_than_the_image():
     close(ours, splat)
     image, _ = renderer.render(colour, coords, "filter")
     close(image, filter_image(db, colour, coords))
+
+
+def test_all_fast_track_database_needs_no_integration():
+    rng = np.random.default_rng(12)
+    db = random_database(rng, channels=3, fast=1.0)
+    colour, coords = scene(rng, db, 14, 11, 3)
+    renderer = Renderer(db)
+    ours, t = renderer.render(colour, coords, "spreadlets")
+    assert t["spreadlets"] == 0 and t["dense_pixels"] > 0
+    splat, _ = renderer.render(colour, coords, "splat")
+    np.testing.assert_array_equal(ours, splat)  # the same dense splats in the same order

@@ -31,8 +31,8 @@ from .voronoi import assign, build_occupancy, collapse, nearest
 
 __all__ = ["anneal", "AnnealResult", "T_START", "T_END"]
 
-T_START = 1e-2  # temperature at the first step, relative to the starting cost
-T_END = 1e-4    # temperature at the last step, relative to the starting cost
+T_START = 2e-3  # temperature at the first step, relative to the starting cost
+T_END = 1e-5    # temperature at the last step, relative to the starting cost
 _OFFSETS = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)],
                     np.int32)
 
@@ -132,8 +132,8 @@ class AnnealResult:
 
 def anneal(sy, sx, lap, py, px, cost: BoxCost, rng: np.random.Generator, steps: int = 400,
            fraction: float = 0.01, bounds: tuple[int, int, int, int] | None = None,
-           project: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
-           ) -> AnnealResult:
+           project: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
+           fixed: np.ndarray | None = None) -> AnnealResult:
     """Anneal integer spreadlet positions against the reconstruction cost.
 
     Parameters
@@ -157,6 +157,9 @@ def anneal(sy, sx, lap, py, px, cost: BoxCost, rng: np.random.Generator, steps: 
     project : callable (py, px, values) -> values, optional
         Applied to the Voronoi sums before scoring (e.g. :class:`lab.sparsify.moments.MomentMatch`);
         the returned values stay the raw sums.
+    fixed : ndarray, (n, C), optional
+        Values that stay with each point whatever its cell (the Laplacian of pixels outside the
+        annealed support, assigned once; see :func:`lab.sparsify.sparsify`).
 
     Returns
     -------
@@ -172,6 +175,8 @@ def anneal(sy, sx, lap, py, px, cost: BoxCost, rng: np.random.Generator, steps: 
     lab, d2 = assign(sy, sx, py, px, (h, w))
     lab, d2 = lab.astype(np.int64), d2.astype(np.int64)
     vals = collapse(lab, lap, n)
+    if fixed is not None:
+        vals += fixed
     head, nxt = build_occupancy(py.astype(np.int32), px.astype(np.int32), h, w)
     sidx = np.full((h, w), -1, np.int64)
     sidx[sy, sx] = np.arange(k_sup)

@@ -27,7 +27,7 @@ def psf_laplacian(psf: np.ndarray) -> np.ndarray:
     return laplacian5(np.asarray(psf, dtype=np.float64))
 
 
-def importance(psf: np.ndarray, lap: np.ndarray) -> np.ndarray:
+def importance(psf: np.ndarray, lap: np.ndarray, floor: np.ndarray | None = None) -> np.ndarray:
     """Spreadlet importance, (R, R) float64: max over channels of ``|lap_c| / level_c``.
 
     Parameters
@@ -36,15 +36,18 @@ def importance(psf: np.ndarray, lap: np.ndarray) -> np.ndarray:
         The dense PSF (non-negative, each channel with a positive sum).
     lap : ndarray, (R, R, C)
         Its Laplacian from :func:`psf_laplacian`.
+    floor : ndarray, (R, R, C), optional
+        Noise floor subtracted from ``|lap|`` first (soft threshold, see :mod:`.noise`).
 
     Returns
     -------
     ndarray, (R, R) float64
-        Zero exactly where every channel's Laplacian is zero.
+        Zero exactly where every channel's Laplacian is zero (or below the floor).
     """
     f = np.asarray(psf, dtype=np.float64)
     level = (f * f).sum(axis=(0, 1)) / f.sum(axis=(0, 1))
-    return (np.abs(lap) / level).max(axis=2)
+    mag = np.abs(lap) if floor is None else np.maximum(np.abs(lap) - floor, 0.0)
+    return (mag / level).max(axis=2)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from lab.errors import UserError
 from runtime_cl.integrate import poisson_integrate
@@ -26,13 +27,15 @@ from .laplacian import importance, psf_laplacian, working_box
 from .lloyd import lloyd
 from .merge import merge_coincident
 from .moments import MomentMatch
+from .noise import K_SIGMA, denoise, detect_quantum
 from .stats import dense_count, similarity
+from .validate import check_params, check_psf
 from .voronoi import assign, collapse
 
 __all__ = ["sparsify", "SparsePSF", "MASS"]
 
 # Importance mass per dart-throwing disk at density 1 (see the module docstring).
-MASS = 2.0
+MASS = 0.25
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,71 +94,39 @@ class SparsePSF:
                                 f"PSF ({w}x{h} at offset {dx},{dy}); use a larger resolution")
             out[c + dy:c + dy + h, c + dx:c + dx + w] = self.dense
             return out
-        if len(self.points):
+        pos = c + self.points.astype(np.int64)
+        if len(pos) and (pos.min() < 1 or pos.max() > resolution - 2):
             ext = int(np.abs(self.points.astype(np.int64)).max())
-            if c - ext < 1 or c + ext > resolution - 2:
-                raise UserError(f"reconstruct: resolution = {resolution} cannot hold spreadlets "
-                                f"{ext} px from the centre; use resolution >= {2 * ext + 5}")
+            raise UserError(f"reconstruct: resolution = {resolution} cannot hold spreadlets "
+                            f"{ext} px from the centre; use resolution >= {2 * ext + 4}")
         lap = np.zeros((resolution, resolution, chans), np.float64)
-        np.add.at(lap, (c + self.points[:, 1].astype(np.int64),
-                        c + self.points[:, 0].astype(np.int64)), self.values.astype(np.float64))
+        np.add.at(lap, (pos[:, 1], pos[:, 0]), self.values.astype(np.float64))
         return poisson_integrate(lap)
 
 
-def _check_psf(psf) -> np.ndarray:
-    if not isinstance(psf, np.ndarray):
-        raise UserError(f"sparsify: psf must be a numpy array (R, R, C), got {type(psf).__name__}")
-    if psf.ndim != 3 or psf.shape[0] != psf.shape[1] or psf.shape[2] not in (1, 3):
-        raise UserError(f"sparsify: psf shape {psf.shape} must be (R, R, C) with C = 1 or 3; "
-                        "add a channel axis with psf[..., None] for a grey PSF")
-    if not 8 <= psf.shape[0] <= 32767:
-        raise UserError(f"sparsify: psf resolution R = {psf.shape[0]} must be in 8 .. 32767")
-    if not np.issubdtype(psf.dtype, np.floating):
-        raise UserError(f"sparsify: psf dtype {psf.dtype} must be floating point (float32)")
-    f = psf.astype(np.float64)
-    if not np.isfinite(f).all():
-        raise UserError(f"sparsify: psf has {int((~np.isfinite(f)).sum())} NaN/inf pixels; "
-                        "fix the PSF tracer output")
-    if (f < 0).any():
-        raise UserError(f"sparsify: psf has negative values (min {f.min():.3g}); a PSF is "
-                        "non-negative")
-    sums = f.sum(axis=(0, 1))
-    if not np.allclose(sums, 1.0, rtol=0, atol=1e-3):
-        raise UserError(f"sparsify: psf channel sums {np.round(sums, 6).tolist()} must be 1; "
-                        "normalise each channel")
-    ring = np.concatenate([f[:2].ravel(), f[-2:].ravel(), f[:, :2].ravel(), f[:, -2:].ravel()])
-    if ring.any():
-        raise UserError("sparsify: psf is nonzero within 2 px of its border; trace it into a "
-                        "larger image so the Laplacian and its integration stay inside")
-    return f
+def _below_floor_values(mask, lap_b, py, px) -> np.ndarray:
+    """Laplacian of the pixels below the noise floor, summed into their nearest point (n, C).
+
+    They are mostly noise, but also weak smooth signal whose sum matters (dropping it shifts the
+    integrated level), so they are collapsed like the rest, once, after Lloyd: they stay with
+    their point during annealing. Without a noise floor the mask is empty and this is zero.
+    """
+    out = np.zeros((py.size, lap_b.shape[2]))
+    if mask.any():
+        qy, qx = np.nonzero(mask)
+        _, lab = cKDTree(np.column_stack([py, px])).query(np.column_stack([qy, qx]))
+        out = collapse(lab, lap_b[qy, qx], py.size)
+    return out
 
 
-def _check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, anneal_fraction):
-    def is_int(v):
-        return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
-
-    if not (isinstance(density, (int, float)) and math.isfinite(density) and density > 0):
-        raise UserError(f"sparsify: density = {density!r} must be a finite number > 0 "
-                        "(1.0 = default, 2.0 = about twice the spreadlets)")
-    if not is_int(seed) or seed < 0:
-        raise UserError(f"sparsify: seed = {seed!r} must be an integer >= 0")
-    for name, v, lo in (("dart_failures", dart_failures, 1),
-                        ("lloyd_iterations", lloyd_iterations, 0),
-                        ("anneal_steps", anneal_steps, 0)):
-        if not is_int(v) or v < lo:
-            raise UserError(f"sparsify: {name} = {v!r} must be an integer >= {lo}")
-    if not (isinstance(anneal_fraction, (int, float)) and 0 < anneal_fraction <= 1):
-        raise UserError(f"sparsify: anneal_fraction = {anneal_fraction!r} must be in (0, 1]")
-
-
-def _dense(f, n_points, n_dense) -> SparsePSF:
+def _dense(f, n_points, n_dense, extra) -> SparsePSF:
     mask = (f != 0).any(axis=2)
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     c = f.shape[0] // 2
     crop = f[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1].astype(np.float32)
     stats = dict(n_points=float(n_points), n_dense=float(n_dense),
                  sparsity=n_points / n_dense, ssim=1.0, l1=0.0, drawn=float(n_dense),
-                 cost_lloyd=0.0, cost_final=0.0)
+                 cost_lloyd=0.0, cost_final=0.0, ssim_target=1.0, l1_target=0.0, **extra)
     chans = f.shape[2]
     return SparsePSF(np.zeros((0, 2), np.int16), np.zeros((0, chans), np.float32), True, stats,
                      crop, (int(cols[0]) - c, int(rows[0]) - c))
@@ -163,7 +134,7 @@ def _dense(f, n_points, n_dense) -> SparsePSF:
 
 def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
              dart_failures: int = 10_000, lloyd_iterations: int = 50, anneal_steps: int = 400,
-             anneal_fraction: float = 0.01) -> SparsePSF:
+             anneal_fraction: float = 0.01, noise: str = "auto") -> SparsePSF:
     """Turn a dense PSF into spreadlets (LSR18 section 5.5) or keep it dense (section 6.4).
 
     Parameters
@@ -173,7 +144,7 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
         zero within 2 px of the border.
     density : float, default 1.0
         Sparsity knob: about ``density`` times the default number of spreadlets (LSR18 Fig. 10d
-        uses 0.5, 1 and 2).
+        uses 0.5, 1 and 2). Thin rims saturate: a rim has only so many pixels.
     seed : int, default 0
         Seed of the numpy Generator behind every random choice; same seed, same result.
     dart_failures : int, default 10000
@@ -184,55 +155,77 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
         Simulated annealing steps.
     anneal_fraction : float, default 0.01
         Fraction of the points moved per annealing step (at least one).
+    noise : {"auto", "off"}, default "auto"
+        "auto": a PSF that is a histogram of equal-weight rays is denoised first
+        (:mod:`lab.sparsify.noise`); "off": every PSF is taken as exact.
 
     Returns
     -------
     SparsePSF
-        Spreadlets and statistics, or the dense fast-track PSF.
+        Spreadlets and statistics, or the dense fast-track PSF. ``stats`` also holds ``rays``
+        (detected ray count, 0 if none), ``denoise_sigma`` (px) and ``ssim_target`` /
+        ``l1_target``, the similarity to the denoised PSF the spreadlets were fitted to.
 
     Raises
     ------
     UserError
         On a malformed PSF or parameter; the message names it and the fix.
     """
-    f = _check_psf(psf)
-    _check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, anneal_fraction)
+    f_in = check_psf(psf)
+    check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, anneal_fraction,
+                 noise)
     rng = np.random.default_rng(seed)
-    n_dense = dense_count(f)
+    n_dense = dense_count(f_in)
+    quantum = detect_quantum(f_in) if noise == "auto" else None
+    f, floor, extra = f_in, None, dict(rays=0.0, denoise_sigma=0.0)
+    if quantum is not None:
+        dn = denoise(f_in, quantum)
+        f, floor = dn.psf, K_SIGMA * dn.lap_sd
+        extra = dict(rays=float(1.0 / quantum.max()), denoise_sigma=dn.sigma)
     lap = psf_laplacian(f)
     box = working_box(f, lap)
-    imp, lap_b = box.crop(importance(f, lap)), box.crop(lap)
+    lap_b = box.crop(lap)
+    imp = box.crop(importance(f, lap, floor))
+    if not (imp > 0).any():  # nothing above the noise: fall back to the plain importance
+        imp = box.crop(importance(f, lap))
     sy, sx = np.nonzero(imp > 0)
     shape = (box.h, box.w)
     py, px = throw_darts(sy, sx, imp[sy, sx], MASS / density, rng, dart_failures, shape)
     if py.size >= n_dense:  # Lloyd and annealing never add points: decided already
-        return _dense(f, py.size, n_dense)
+        return _dense(f_in, py.size, n_dense, extra)
     py, px = lloyd(sy, sx, imp[sy, sx], py, px, lloyd_iterations)
     cost = BoxCost(box.crop(f))
     lap_s = lap_b[sy, sx]
-    match = MomentMatch(sy, sx, lap_s)
+    nonzero = lap_b.any(axis=2)
+    match = MomentMatch(*np.nonzero(nonzero), lap_b[nonzero])
+    fixed = _below_floor_values(nonzero & ~(imp > 0), lap_b, py, px)
     if anneal_steps > 0:
-        bounds = (max(int(sy.min()) - 2, 1), min(int(sy.max()) + 2, box.h - 2),
-                  max(int(sx.min()) - 2, 1), min(int(sx.max()) + 2, box.w - 2))
+        # near the support, inside the box and the image (whose border ring stays empty)
+        res_ = f.shape[0]
+        bounds = (max(int(sy.min()) - 2, 1, 1 - box.y0), min(int(sy.max()) + 2, box.h - 2,
+                                                             res_ - 2 - box.y0),
+                  max(int(sx.min()) - 2, 1, 1 - box.x0), min(int(sx.max()) + 2, box.w - 2,
+                                                             res_ - 2 - box.x0))
         res = anneal(sy, sx, lap_s, py, px, cost, rng, anneal_steps, anneal_fraction, bounds,
-                     match)
+                     match, fixed)
         py, px = res.py, res.px
         cost_lloyd, cost_final = res.start_cost, float(res.best_costs[-1])
     # exact per-cell sums (the annealer's are incremental); same tie rule, same cells
     labels, _ = assign(sy, sx, py, px, shape)
-    vals = match(py, px, collapse(labels, lap_s, py.size))
+    vals = match(py, px, collapse(labels, lap_s, py.size) + fixed)
     if anneal_steps == 0:
         canvas = np.zeros(cost.target.shape)
         np.add.at(canvas, (py, px), vals)
         cost_lloyd = cost_final = cost(canvas)
     c = f.shape[0] // 2
-    pts = np.column_stack([px + box.x0 - c, py + box.y0 - c])
-    pts, vals = merge_coincident(pts, vals)
+    pts, vals = merge_coincident(np.column_stack([px + box.x0 - c, py + box.y0 - c]), vals)
     if len(pts) >= n_dense:
-        return _dense(f, len(pts), n_dense)
+        return _dense(f_in, len(pts), n_dense, extra)
     sparse = SparsePSF(pts.astype(np.int16), vals.astype(np.float32), False)
-    ssim, l1 = similarity(f, sparse.reconstruct(f.shape[0]), box)
+    rec = sparse.reconstruct(f.shape[0])
+    ssim, l1 = similarity(f_in, rec, box)
+    ssim_t, l1_t = (ssim, l1) if quantum is None else similarity(f, rec, box)
     stats = dict(n_points=float(len(pts)), n_dense=float(n_dense), sparsity=len(pts) / n_dense,
                  ssim=ssim, l1=l1, drawn=float(len(pts)), cost_lloyd=cost_lloyd,
-                 cost_final=cost_final)
+                 cost_final=cost_final, ssim_target=ssim_t, l1_target=l1_t, **extra)
     return SparsePSF(sparse.points, sparse.values, False, stats)

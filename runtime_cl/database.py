@@ -142,10 +142,12 @@ class SpreadletDatabase:
     # --- queries -------------------------------------------------------------------------
     @property
     def n_samples(self) -> int:
+        """Number of PSF samples (= cells of the grid)."""
         return self.grid.size
 
     @property
     def n_spreadlets(self) -> int:
+        """Total number of spreadlets over all samples."""
         return int(self.C[-1])
 
     @property
@@ -170,6 +172,7 @@ class SpreadletDatabase:
         return rows.reshape(side, side, self.channels)
 
     def header(self) -> dict:
+        """The JSON header written to the file (everything but the arrays)."""
         return {"magic": MAGIC, "format_version": FORMAT_VERSION, "model": self.model,
                 "params": self.params, "grid": self.grid.to_json(), "channels": int(self.channels),
                 "psf_resolution": int(self.psf_resolution), "stats": sorted(self.stats),
@@ -185,6 +188,7 @@ class SpreadletDatabase:
         return _checksum(_header_bytes(self.header()), self._arrays())
 
     def nbytes(self) -> int:
+        """Bytes of all arrays (the file adds the zip directory and the header)."""
         return int(sum(a.nbytes for a in self._arrays().values()))
 
     def info(self) -> dict:

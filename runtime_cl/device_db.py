@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .database import SpreadletDatabase
-from .device import Device, get_device
+from .device import Device, event_ms, get_device
 from .psf_space_cl import PsfSpaceTables
 
 
@@ -30,8 +30,6 @@ class DeviceDatabase:
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None):
         import pyopencl as cl
-
-        from .device import event_ms
 
         self.db = db
         self.device = device or get_device()

@@ -129,7 +129,18 @@ class BandSplatter:
         nbands = bands or self.default_bands(height)
         band_rows = -(-height // nbands)
         nbands = -(-height // band_rows)  # drop empty bands
-        band_floats = self.groups * (band_rows + 2 * pad) * wc * (4 if oc == 3 else 1)  # float4 pixels
+        pixel_floats = 4 if oc == 3 else 1  # RGB band pixels are float4
+        limit = self.device.device.max_mem_alloc_size
+        # fewer bands overlap less: shrink the band count until the band buffer fits the device
+        while nbands > 1 and nbands * self.groups * (band_rows + 2 * pad) * wc * pixel_floats * 4 > limit:
+            nbands = max(1, nbands // 2)
+            band_rows = -(-height // nbands)
+            nbands = -(-height // band_rows)
+        band_floats = self.groups * (band_rows + 2 * pad) * wc * pixel_floats
+        if nbands * band_floats * 4 > limit:
+            raise InputError(f"image {height}x{width} with padding {pad}: the splat buffer needs "
+                             f"{nbands * band_floats * 4 >> 20} MiB, the OpenCL device allows {limit >> 20} "
+                             "MiB per buffer; render a smaller image or tiles of it")
         bands_buf = self._buffer("bands", nbands * band_floats * 4)
         counts_buf = self._buffer("counts", nbands * 16)
         canvas_buf = self._buffer("canvas", self.groups * hc * wc * oc * 4)

@@ -11,7 +11,7 @@
 // Build options:
 //   PSF_NS, PSF_N, PSF_LEVELS    coordinates, grid units per dimension, levels
 //   PSF_REAL                     double if the device has fp64 (then cells match numpy except
-//                                within ~1e-13 of a cell boundary), else float
+//                                within ~1e-12 relative of a cell boundary), else float
 //   PSF_LO, PSF_HI               comma lists, one value per dimension
 //   PSF_OCTAVES, PSF_MB          per dimension: bucket octaves below 1 and mantissa bits
 //   PSF_THR_OFF, PSF_BUCKET_OFF  per dimension: start of its part of the two tables

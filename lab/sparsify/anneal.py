@@ -182,7 +182,7 @@ def anneal(sy, sx, lap, py, px, cost: BoxCost, rng: np.random.Generator, steps: 
     sidx[sy, sx] = np.arange(k_sup)
     moved, touched = np.zeros(n, np.bool_), np.zeros(k_sup, np.bool_)
     log_q, log_lab, log_d2 = (np.empty(k_sup, np.int64) for _ in range(3))
-    canvas = np.zeros((h, w, lap.shape[1]))
+    canvas = np.zeros((h, w, lap.shape[1]), np.float32)
 
     def score():
         _splat(py, px, vals if project is None else project(py, px, vals), canvas)

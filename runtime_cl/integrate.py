@@ -15,6 +15,8 @@ image to float rounding.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 try:  # scipy's pocketfft runs on all cores (about 2x numpy's on this 2-core machine); optional
@@ -34,11 +36,14 @@ def laplacian5(image: np.ndarray) -> np.ndarray:
     return p[:-2, 1:-1] + p[2:, 1:-1] + p[1:-1, :-2] + p[1:-1, 2:] - 4.0 * p[1:-1, 1:-1]
 
 
+@lru_cache(maxsize=8)
 def _eigenvalues(h: int, w: int) -> np.ndarray:
+    """Eigenvalues of the periodic 5-point Laplacian on the rfft2 grid (read-only, cached per size)."""
     ky = 2.0 * np.cos(2.0 * np.pi * np.arange(h) / h)
     kx = 2.0 * np.cos(2.0 * np.pi * np.arange(w // 2 + 1) / w)
     lam = ky[:, None] + kx[None, :] - 4.0
     lam[0, 0] = 1.0  # the constant mode is fixed afterwards from the border
+    lam.flags.writeable = False
     return lam
 
 

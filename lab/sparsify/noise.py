@@ -32,30 +32,43 @@ __all__ = ["detect_quantum", "Denoised", "denoise", "TAU", "K_SIGMA", "SIGMA_LAD
 TAU = 0.01
 K_SIGMA = 3.0
 SIGMA_LADDER = (0.0, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0)
-MIN_COUNT = 16
+MIN_COUNT = 4
 MIN_LEVELS = 4
+
+
+def _ray_count(v: np.ndarray) -> float | None:
+    """Total ray count N if the positive values ``v`` are all ``count / N``, else None."""
+    u = np.unique(v)
+    gaps = np.diff(u)
+    if u.size < MIN_LEVELS:
+        return None
+    # neighbouring counts differ by one ray: the small gaps are 1/N, to float32 rounding
+    first = 1.0 / float(np.median(gaps[gaps < 1.5 * gaps.min()]))
+    # pin N down exactly: the smallest value is an integer count j / N, j near its estimate
+    k0 = float(u[0]) * first
+    spread = max(2.0, 0.01 * k0)
+    for j in range(max(1, int(k0 - spread)), int(np.ceil(k0 + spread)) + 1):
+        rays = j / float(u[0])
+        rays = float(np.rint(np.rint(v * rays).sum() / v.sum()))
+        k = v * rays
+        if (MIN_COUNT <= k.max() <= 2 ** 22
+                and np.abs(k - np.rint(k)).max() <= 0.01 + 1e-7 * k.max()):
+            return rays
+    return None
 
 
 def detect_quantum(psf: np.ndarray) -> np.ndarray | None:
     """Per-channel ray quantum ``q_c = 1 / N_c`` if ``psf`` (R, R, C) is a ray histogram, else None.
 
-    The smallest gap between distinct values is one ray, ``1/N``, in a histogram with enough
-    rays that neighbouring counts occur; N itself is the sum of the counts. The PSF is a
-    histogram when every value is then an integer count to float32 precision (counts up to 2^22,
-    where float32 still separates them).
+    The gaps between distinct values give a first estimate of ``1/N``; the exact ``N`` is the one
+    near it for which the smallest value, and then every value, is an integer count to float32
+    precision (counts up to 2^22, where float32 still separates them).
     """
     quanta = []
     for c in range(psf.shape[2]):
         v = np.asarray(psf[..., c], np.float64)
-        v = v[v > 0]
-        u = np.unique(v)
-        if u.size < MIN_LEVELS:
-            return None
-        counts = np.rint(v / np.diff(u).min())
-        rays = counts.sum()
-        k = v * rays
-        if (counts.max() < MIN_COUNT or counts.max() > 2 ** 22
-                or np.abs(k - np.rint(k)).max() > 0.01 + 1e-7 * k.max()):
+        rays = _ray_count(v[v > 0])
+        if rays is None:
             return None
         quanta.append(1.0 / rays)
     return np.array(quanta)

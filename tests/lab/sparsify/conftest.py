@@ -17,11 +17,17 @@ def rgb_disc():
     return analytic.rgb_discs(64, (18.0, 21.0, 24.0))
 
 
-def ray_histogram(psf: np.ndarray, rays: int, seed: int = 0) -> np.ndarray:
-    """A light-traced version of ``psf``: ``rays`` equal-weight rays binned, count / rays."""
-    rng = np.random.default_rng(seed)
-    out = np.empty(psf.shape, np.float32)
-    for c in range(psf.shape[2]):
-        p = psf[..., c].astype(np.float64).ravel()
-        out[..., c] = (rng.multinomial(rays, p / p.sum()).reshape(psf.shape[:2]) / rays)
-    return out
+@pytest.fixture(scope="session")
+def ray_histogram():
+    """``ray_histogram(psf, rays, seed=0)``: ``psf`` light-traced with ``rays`` equal-weight rays
+    (a multinomial histogram, count / rays, float32), as the PSF tracer produces it."""
+
+    def make(psf: np.ndarray, rays: int, seed: int = 0) -> np.ndarray:
+        rng = np.random.default_rng(seed)
+        out = np.empty(psf.shape, np.float32)
+        for c in range(psf.shape[2]):
+            p = psf[..., c].astype(np.float64).ravel()
+            out[..., c] = rng.multinomial(rays, p / p.sum()).reshape(psf.shape[:2]) / rays
+        return out
+
+    return make

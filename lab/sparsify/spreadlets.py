@@ -131,6 +131,15 @@ def _below_floor_values(mask, lap_b, py, px) -> np.ndarray:
     return out
 
 
+def _move_bounds(sy, sx, box, resolution) -> tuple[int, int, int, int]:
+    """Where annealed points may go (box coordinates, inclusive): within 2 px of the support,
+    inside the box and inside the PSF image without its border ring (the runtime's canvas)."""
+    return (max(int(sy.min()) - 2, 1, 1 - box.y0),
+            min(int(sy.max()) + 2, box.h - 2, resolution - 2 - box.y0),
+            max(int(sx.min()) - 2, 1, 1 - box.x0),
+            min(int(sx.max()) + 2, box.w - 2, resolution - 2 - box.x0))
+
+
 def _dense(f, n_points, n_dense, extra) -> SparsePSF:
     mask = (f != 0).any(axis=2)
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
@@ -212,14 +221,8 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
     match = MomentMatch(*np.nonzero(nonzero), lap_b[nonzero])
     fixed = _below_floor_values(nonzero & ~(imp > 0), lap_b, py, px)
     if anneal_steps > 0:
-        # near the support, inside the box and the image (whose border ring stays empty)
-        res_ = f.shape[0]
-        bounds = (max(int(sy.min()) - 2, 1, 1 - box.y0), min(int(sy.max()) + 2, box.h - 2,
-                                                             res_ - 2 - box.y0),
-                  max(int(sx.min()) - 2, 1, 1 - box.x0), min(int(sx.max()) + 2, box.w - 2,
-                                                             res_ - 2 - box.x0))
-        res = anneal(sy, sx, lap_s, py, px, cost, rng, anneal_steps, anneal_fraction, bounds,
-                     match, fixed)
+        res = anneal(sy, sx, lap_s, py, px, cost, rng, anneal_steps, anneal_fraction,
+                     _move_bounds(sy, sx, box, f.shape[0]), match, fixed)
         py, px = res.py, res.px
         cost_lloyd, cost_final = res.start_cost, float(res.best_costs[-1])
     # exact per-cell sums (the annealer's are incremental); same tie rule, same cells

@@ -172,3 +172,11 @@ def test_simple_lens_sized_discs(radius):
     s = sparsify(f)
     assert not s.fast_track
     assert s.stats["ssim"] >= 0.96 and s.stats["sparsity"] < 0.08 and s.stats["l1"] < 0.01
+
+
+def test_psf_filling_its_image_keeps_spreadlets_inside():
+    f = analytic.prefiltered_disc(61, 27.0, 1.0)  # 2 px of empty border, no more
+    s = sparsify(f)
+    assert not s.fast_track and s.stats["ssim"] > 0.97
+    pos = 30 + s.points.astype(int)
+    assert pos.min() >= 1 and pos.max() <= 59  # off the border ring of the runtime canvas

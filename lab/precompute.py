@@ -96,14 +96,15 @@ def build_cell(model, cell: int) -> dict:
 
     cfg = model.config
     t0 = time.perf_counter()
-    psf = model.trace(cell, seed=cfg.seed)
+    traced = model.trace_checked(cell, seed=cfg.seed)
     t1 = time.perf_counter()
+    psf = traced.psf
     sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell)
     t2 = time.perf_counter()
     stats = {k: float(v) for k, v in sp.stats.items()}
     return {"points": sp.points, "values": sp.values, "fast_track": np.array(sp.fast_track),
             "dense": dense_crop(psf), "stats": np.array(json.dumps(stats)),
-            "trace_s": np.array(t1 - t0), "sparsify_s": np.array(t2 - t1)}
+            "trace_s": np.array(t1 - t0), "sparsify_s": np.array(t2 - t1), "rays": np.array(traced.n_rays)}
 
 
 def precompute(model, *, force: bool = False, progress: bool = True) -> PrecomputeResult:
@@ -128,7 +129,7 @@ def precompute(model, *, force: bool = False, progress: bool = True) -> Precompu
         _write_npz(path, **shard)
         trace_s += float(shard["trace_s"])
         sparsify_s += float(shard["sparsify_s"])
-        rays += model.config.rays_per_psf
+        rays += int(shard["rays"])
         if trace_s > 0:
             bar.set_postfix(Mrays_s=f"{rays / trace_s / 1e6:.0f}", refresh=False)
     builder = DatabaseBuilder(model.name, {"config": to_table(model.config), "hash": digest,

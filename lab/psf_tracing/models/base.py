@@ -118,16 +118,29 @@ class PSFModel(abc.ABC):
         if isinstance(cell, bool) or not isinstance(cell, (int, np.integer)) or not 0 <= cell < self.grid.size:
             raise UserError(f"cell = {cell!r}: must be an integer in 0..{self.grid.size - 1}")
         b = self.boxes[int(cell)]
-        return self.trace_box(b.lo, b.hi, n_rays, seed, stream=int(cell))
+        n = self.rays_for_cell(int(cell)) if n_rays is None else n_rays
+        return self.trace_box(b.lo, b.hi, n, seed, stream=int(cell))
 
-    def trace(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> np.ndarray:
-        """The pre-filtered PSF of ``cell``: (R, R, C) float32, each channel summing to 1.
+    def rays_for_cell(self, cell: int) -> int:
+        """Rays traced for ``cell`` by default: the config's ``rays_per_psf``.
 
-        Centre at pixel (R//2, R//2), rows = y downward. Raises UserError if any ray landed
-        outside the image (the config's resolution is too small for its range).
+        Models whose PSFs grow with the coordinate override this to keep the Monte Carlo noise per
+        PSF pixel (which the Laplacian amplifies, LSR18 section 5.3) the same for every cell.
         """
+        return self.config.rays_per_psf
+
+    def trace_checked(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> TraceResult:
+        """:meth:`trace_cell`, raising UserError if any ray landed outside the PSF image
+        (the config's resolution is too small for its range)."""
         result = self.trace_cell(cell, n_rays, seed)
         if result.n_outside:
             raise UserError(f"PSF model {self.name}: {result.n_outside} of {result.n_rays} rays of cell "
                             f"{cell} landed outside the {self.resolution}^2 PSF image; raise psf_resolution")
-        return result.psf
+        return result
+
+    def trace(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> np.ndarray:
+        """The pre-filtered PSF of ``cell``: (R, R, C) float32, each channel summing to 1.
+
+        Centre at pixel (R//2, R//2), rows = y downward (see :meth:`trace_checked`).
+        """
+        return self.trace_checked(cell, n_rays, seed).psf

@@ -87,9 +87,9 @@ def bench_precompute(repeats: int) -> Path:
     trace = measure_throughput(model, repeats=repeats).to_json()
     sparsify_s = {}
     for cell in (model.grid.size // 2, 3 * model.grid.size // 4, model.grid.size - 1):
-        psf = model.trace(cell)
+        traced = model.trace_checked(cell)
         t = time.perf_counter()
-        sp = sparsify(psf, seed=cell)
+        sp = sparsify(traced.psf, seed=cell, rays=traced.n_rays)
         radius = round(model.boxes[cell].centre[0], 1)
         sparsify_s[f"r={radius}px"] = {"seconds": time.perf_counter() - t, **sp.stats}
     data = {"trace": trace, "sparsify": sparsify_s,

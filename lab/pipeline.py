@@ -20,7 +20,7 @@ from runtime_cl.database import SpreadletDatabase
 from .errors import UserError
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
 from .plan import Plan, make_plan
-from .precompute import CACHE, ROOT, precompute
+from .precompute import ROOT, cache_root, precompute
 from .scene import Scene, load_scene
 
 RENDER_SOURCES = ("lab/reference", "lab/scene.py", "lab/scene_objects.py", "lab/exr_io.py")
@@ -44,7 +44,7 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
     from .reference.labelled import render_labelled
     from .reference.render import render_reference
 
-    folder = CACHE / "renders" / f"{scene.name}-{_render_hash(scene)}"
+    folder = cache_root() / "renders" / f"{scene.name}-{_render_hash(scene)}"
     folder.mkdir(parents=True, exist_ok=True)
     info = {"cache": str(folder)}
     input_path, ref_path = folder / "input.exr", folder / "reference.exr"

@@ -26,7 +26,12 @@ from runtime_cl.database import DatabaseBuilder, SpreadletDatabase
 from .config import to_table
 
 ROOT = Path(__file__).resolve().parents[1]
-CACHE = Path(os.environ.get("SPLATLAB_CACHE", ROOT / ".cache"))
+
+
+def cache_root() -> Path:
+    """Where renders, shards and databases are cached: ``$SPLATLAB_CACHE`` or ``.cache/``."""
+    return Path(os.environ.get("SPLATLAB_CACHE", ROOT / ".cache"))
+
 # The code whose output a database is: a change to any of these files rebuilds.
 SOURCES = ("lab/optics", "lab/psf_tracing", "lab/sparsify", "runtime_cl/database.py",
            "runtime_cl/psf_space.py", "runtime_cl/integrate.py", "lab/precompute.py")
@@ -99,7 +104,7 @@ def build_cell(model, cell: int) -> dict:
     traced = model.trace_checked(cell, seed=cfg.seed)
     t1 = time.perf_counter()
     psf = traced.psf
-    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell)
+    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=traced.n_rays)
     t2 = time.perf_counter()
     stats = {k: float(v) for k, v in sp.stats.items()}
     return {"points": sp.points, "values": sp.values, "fast_track": np.array(sp.fast_track),
@@ -111,11 +116,11 @@ def precompute(model, *, force: bool = False, progress: bool = True) -> Precompu
     """Build (or reuse) the spreadlet database of ``model`` (a :class:`PSFModel` instance)."""
     t_start = time.perf_counter()
     digest = content_hash(model.name, model.config)
-    out = CACHE / "db" / f"{model.name}-{digest}.spdb"
+    out = cache_root() / "db" / f"{model.name}-{digest}.spdb"
     if out.exists() and not force:
         SpreadletDatabase.load(out, expect_model=model.name)  # validates the checksum
         return PrecomputeResult(out, True, time.perf_counter() - t_start, 0, 0.0, 0.0)
-    shard_dir = CACHE / "precompute" / f"{model.name}-{digest}"
+    shard_dir = cache_root() / "precompute" / f"{model.name}-{digest}"
     shard_dir.mkdir(parents=True, exist_ok=True)
     cells = model.grid.size
     trace_s = sparsify_s = 0.0

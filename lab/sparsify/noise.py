@@ -13,9 +13,7 @@ So for a histogram PSF we
 2. soft-threshold the importance at ``K_SIGMA`` standard deviations of the propagated Laplacian
    noise, ``var(L(g * f)) = q ((L g)^2 * f)``, so pure noise pixels get (almost) zero importance.
 
-Detection (:func:`detect_quantum`): every channel is an integer multiple of one quantum, with at
-least ``MIN_COUNT`` rays in the fullest pixel and ``MIN_LEVELS`` distinct values (a hard-edged disc
-or a delta has one or two levels and is not taken for a 1-ray-per-pixel histogram).
+The ray count comes from the tracer (``sparsify(..., rays=N)``), never guessed from values.
 """
 from __future__ import annotations
 
@@ -27,51 +25,11 @@ import scipy.signal
 
 from runtime_cl.integrate import laplacian5
 
-__all__ = ["detect_quantum", "Denoised", "denoise", "TAU", "K_SIGMA", "SIGMA_LADDER"]
+__all__ = ["Denoised", "denoise", "TAU", "K_SIGMA", "SIGMA_LADDER"]
 
 TAU = 0.01
 K_SIGMA = 3.0
 SIGMA_LADDER = (0.0, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0)
-MIN_COUNT = 4
-MIN_LEVELS = 4
-
-
-def _ray_count(v: np.ndarray) -> float | None:
-    """Total ray count N if the positive values ``v`` are all ``count / N``, else None."""
-    u = np.unique(v)
-    gaps = np.diff(u)
-    if u.size < MIN_LEVELS:
-        return None
-    # neighbouring counts differ by one ray: the small gaps are 1/N, to float32 rounding
-    first = 1.0 / float(np.median(gaps[gaps < 1.5 * gaps.min()]))
-    # pin N down exactly: the smallest value is an integer count j / N, j near its estimate
-    k0 = float(u[0]) * first
-    spread = max(2.0, 0.01 * k0)
-    for j in range(max(1, int(k0 - spread)), int(np.ceil(k0 + spread)) + 1):
-        rays = j / float(u[0])
-        rays = float(np.rint(np.rint(v * rays).sum() / v.sum()))
-        k = v * rays
-        if (MIN_COUNT <= k.max() <= 2 ** 22
-                and np.abs(k - np.rint(k)).max() <= 0.01 + 1e-7 * k.max()):
-            return rays
-    return None
-
-
-def detect_quantum(psf: np.ndarray) -> np.ndarray | None:
-    """Per-channel ray quantum ``q_c = 1 / N_c`` if ``psf`` (R, R, C) is a ray histogram, else None.
-
-    The gaps between distinct values give a first estimate of ``1/N``; the exact ``N`` is the one
-    near it for which the smallest value, and then every value, is an integer count to float32
-    precision (counts up to 2^22, where float32 still separates them).
-    """
-    quanta = []
-    for c in range(psf.shape[2]):
-        v = np.asarray(psf[..., c], np.float64)
-        rays = _ray_count(v[v > 0])
-        if rays is None:
-            return None
-        quanta.append(1.0 / rays)
-    return np.array(quanta)
 
 
 def _kernels(sigma: float) -> tuple[np.ndarray, np.ndarray]:
@@ -102,7 +60,7 @@ def denoise(psf: np.ndarray, quantum: np.ndarray, tau: float | None = None) -> D
     psf : ndarray, (R, R, C)
         Histogram PSF (counts / rays), each channel summing to 1.
     quantum : ndarray, (C,)
-        ``1 / rays`` per channel, from :func:`detect_quantum`.
+        ``1 / rays`` per channel: the tracer's ray count.
     tau : float, optional
         Largest accepted Laplacian noise in a flat region, relative to the PSF's level
         (default: the module's ``TAU``).

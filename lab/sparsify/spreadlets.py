@@ -39,7 +39,7 @@ from .laplacian import importance, psf_laplacian, working_box
 from .lloyd import lloyd
 from .merge import merge_coincident
 from .moments import MomentMatch
-from .noise import K_SIGMA, denoise, detect_quantum
+from .noise import K_SIGMA, denoise
 from .stats import dense_count, similarity
 from .validate import check_params, check_psf
 from .voronoi import assign, collapse
@@ -155,7 +155,7 @@ def _dense(f, n_points, n_dense, extra) -> SparsePSF:
 
 def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
              dart_failures: int = 10_000, lloyd_iterations: int = 50, anneal_steps: int = 400,
-             anneal_fraction: float = 0.01, noise: str = "auto") -> SparsePSF:
+             anneal_fraction: float = 0.01, rays: int | None = None) -> SparsePSF:
     """Turn a dense PSF into spreadlets (LSR18 section 5.5) or keep it dense (section 6.4).
 
     Parameters
@@ -176,15 +176,16 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
         Simulated annealing steps.
     anneal_fraction : float, default 0.01
         Fraction of the points moved per annealing step (at least one).
-    noise : {"auto", "off"}, default "auto"
-        "auto": a PSF that is a histogram of equal-weight rays is denoised first
-        (:mod:`lab.sparsify.noise`); "off": every PSF is taken as exact.
+    rays : int, optional
+        The PSF is a histogram of this many equal-weight rays (the tracer's count): it is denoised
+        first and Laplacian values within the noise get no spreadlets (:mod:`lab.sparsify.noise`).
+        None (default): the PSF is exact.
 
     Returns
     -------
     SparsePSF
         Spreadlets and statistics, or the dense fast-track PSF. ``stats`` also holds ``rays``
-        (detected ray count, 0 if none), ``denoise_sigma`` (px) and ``ssim_target`` /
+        (the ray count, 0 if exact), ``denoise_sigma`` (px) and ``ssim_target`` /
         ``l1_target``, the similarity to the denoised PSF the spreadlets were fitted to.
 
     Raises
@@ -194,10 +195,10 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
     """
     f_in = check_psf(psf)
     check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, anneal_fraction,
-                 noise)
+                 rays)
     rng = np.random.default_rng(seed)
     n_dense = dense_count(f_in)
-    quantum = detect_quantum(f_in) if noise == "auto" else None
+    quantum = None if rays is None else np.full(f_in.shape[2], 1.0 / rays)
     f, floor, extra = f_in, None, dict(rays=0.0, denoise_sigma=0.0)
     if quantum is not None:
         dn = denoise(f_in, quantum)

@@ -52,7 +52,7 @@ def check_psf(psf) -> np.ndarray:
 
 
 def check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, anneal_fraction,
-                 noise):
+                 rays):
     """Check :func:`lab.sparsify.sparsify`'s keyword arguments (see there); raise UserError."""
     def is_int(v):
         return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
@@ -71,5 +71,6 @@ def check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, a
     if not (isinstance(anneal_fraction, numbers.Real) and not isinstance(anneal_fraction, bool)
             and 0 < anneal_fraction <= 1):
         raise UserError(f"sparsify: anneal_fraction = {anneal_fraction!r} must be in (0, 1]")
-    if noise not in ("auto", "off"):
-        raise UserError(f"sparsify: noise = {noise!r} must be 'auto' or 'off'")
+    if rays is not None and not (is_int(rays) and rays >= 1):
+        raise UserError(f"sparsify: rays = {rays!r} must be the tracer's ray count (an integer >= 1) "
+                        "or None for an exact PSF")

@@ -1,0 +1,135 @@
+"""The `splatlab` command line: render contract and bad input (exit 2, one line, nothing left behind)."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lab.cli import build_parser, main
+from lab.exr_io import LabelledImage, read_labelled, read_rgb, write_labelled
+from runtime_cl.database import SpreadletDatabase
+
+TINY = Path(__file__).resolve().parents[3] / "scenes" / "tiny.toml"
+
+
+def run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("command", ["plan", "precompute", "reference", "render", "report", "demo", "bench",
+                                     "db", "doctor"])
+def test_every_command_has_help(command, capsys):
+    with pytest.raises(SystemExit) as exc:
+        build_parser().parse_args([command, "--help"])
+    assert exc.value.code == 0
+    assert len(capsys.readouterr().out) > 100
+
+
+def test_plan_lists_what_runs(capsys):
+    code, out, _ = run(["plan", TINY], capsys)
+    assert code == 0 and "simple_lens" in out and "spreadlets -> splat -> filter" in out
+
+
+@pytest.mark.parametrize("method", ["spreadlets", "splat", "filter"])
+def test_render_contract(method, tiny_input, tiny_db, tmp_path, capsys):
+    out = tmp_path / f"{method}.exr"
+    code, stdout, _ = run(["render", tiny_input, "--db", tiny_db, "--method", method, "--out", out], capsys)
+    assert code == 0 and method in stdout
+    img = read_rgb(out)
+    src = read_labelled(tiny_input)
+    assert img.shape == src.rgb.shape and np.all(np.isfinite(img))
+    # splatting normalised PSFs conserves the image's total energy (up to light blurred off-frame)
+    assert 0.85 < img.sum() / src.rgb.sum() < 1.05
+
+
+def test_db_info(tiny_db, capsys):
+    code, out, _ = run(["db", "info", tiny_db], capsys)
+    assert code == 0 and '"model": "simple_lens"' in out
+
+
+def _expect_user_error(argv, capsys, *needles):
+    code, out, err = run(argv, capsys)
+    assert code == 2, (out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    for needle in needles:
+        assert needle in err, (needle, err)
+    return err
+
+
+def test_scene_with_a_typo(tmp_path, capsys):
+    bad = tmp_path / "typo.toml"
+    bad.write_text(TINY.read_text().replace("focus_distance_m", "focus_distanse_m"))
+    _expect_user_error(["plan", bad], capsys, str(bad), "[camera]", "focus_distanse_m")
+
+
+def test_negative_aperture(tmp_path, capsys):
+    bad = tmp_path / "neg.toml"
+    bad.write_text(TINY.read_text().replace("f_number = 0.5", "f_number = -0.5"))
+    _expect_user_error(["plan", bad], capsys, str(bad), "f_number", "-0.5")
+
+
+def _edited_input(src, tmp_path, name, **change):
+    img = read_labelled(src)
+    fields = dict(rgb=img.rgb, alpha=img.alpha, depth=img.depth, camera=img.camera)
+    fields.update(change)
+    path = tmp_path / name
+    write_labelled(path, LabelledImage(**fields))
+    return path
+
+
+def test_exr_without_z(tiny_input, tiny_db, tmp_path, capsys):
+    import OpenEXR
+
+    with OpenEXR.File(str(tiny_input)) as f:
+        header = dict(f.header())
+        channels = {k: v.pixels for k, v in f.channels().items() if k != "Z"}
+    no_z = tmp_path / "noz.exr"
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(no_z))
+    out = tmp_path / "out.exr"
+    _expect_user_error(["render", no_z, "--db", tiny_db, "--out", out], capsys, str(no_z), "Z")
+    assert not out.exists() and list(tmp_path.iterdir()) == [no_z]
+
+
+def test_nan_depth(tiny_input, tiny_db, tmp_path, capsys):
+    z = read_labelled(tiny_input).depth.copy()
+    z[3, 5] = np.nan
+    bad = _edited_input(tiny_input, tmp_path, "nan.exr", depth=z)
+    out = tmp_path / "out.exr"
+    _expect_user_error(["render", bad, "--db", tiny_db, "--out", out], capsys, "nan", str(bad))
+    assert not out.exists()
+
+
+def test_coc_beyond_the_database(tiny_input, tiny_db, tmp_path, capsys):
+    """A camera opened further than the database was built for: say the radius needed."""
+    img = read_labelled(tiny_input)
+    bad = _edited_input(tiny_input, tmp_path, "wide.exr", camera=dict(img.camera, f_number=0.1))
+    out = tmp_path / "out.exr"
+    _expect_user_error(["render", bad, "--db", tiny_db, "--out", out], capsys, "database range", "rebuild")
+    assert not out.exists()
+
+
+def test_truncated_database(tiny_input, tiny_db, tmp_path, capsys):
+    cut = tmp_path / "cut.spdb"
+    cut.write_bytes(tiny_db.read_bytes()[: tiny_db.stat().st_size // 2])
+    out = tmp_path / "out.exr"
+    _expect_user_error(["render", tiny_input, "--db", cut, "--out", out], capsys, str(cut), "precompute")
+    assert not out.exists()
+
+
+def test_database_for_another_model(tiny_input, tiny_db, tmp_path, capsys):
+    db = SpreadletDatabase.load(tiny_db)
+    other = tmp_path / "other.spdb"
+    fields = {k: getattr(db, k) for k in ("params", "grid", "channels", "psf_resolution", "C", "P", "V",
+                                          "fast_track", "dense_radius", "dense_offsets", "dense_values",
+                                          "stats")}
+    SpreadletDatabase(model="volume", **fields).save(other)
+    out = tmp_path / "out.exr"
+    _expect_user_error(["render", tiny_input, "--db", other, "--out", out], capsys, "volume", "simple_lens")
+    assert not out.exists()
+
+
+def test_missing_scene_file(tmp_path, capsys):
+    _expect_user_error(["plan", tmp_path / "nope.toml"], capsys, "nope.toml", "no such scene file")

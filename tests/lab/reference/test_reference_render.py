@@ -29,7 +29,7 @@ def test_scene_dict_sensors(tiny):
     lens = tiny.camera.thin_lens()
     thin = scene_dict(tiny, "scene", spp=8)["sensor"]
     assert thin["type"] == "thinlens" and thin["fov_axis"] == "x"
-    assert thin["aperture_radius"] == pytest.approx(0.085 / 2 / 1.4)
+    assert thin["aperture_radius"] == pytest.approx(lens.aperture_radius_m)
     assert thin["focus_distance"] == 2.0
     assert thin["fov"] == pytest.approx(lens.fov_x_deg())
     assert thin["film"]["rfilter"] == {"type": "box"} and thin["sampler"]["sample_count"] == 8

@@ -152,7 +152,7 @@ def test_bad_values_are_user_errors():
     (dict(seed=-1), "seed"), (dict(seed=1.5), "seed"),
     (dict(dart_failures=0), "dart_failures"), (dict(lloyd_iterations=-1), "lloyd_iterations"),
     (dict(anneal_steps=2.0), "anneal_steps"), (dict(anneal_fraction=0.0), "anneal_fraction"),
-    (dict(anneal_fraction=1.5), "anneal_fraction"), (dict(noise="on"), "noise"),
+    (dict(anneal_fraction=1.5), "anneal_fraction"), (dict(rays=0), "rays"),
 ])
 def test_bad_parameters_are_user_errors(kwargs, match):
     with pytest.raises(UserError, match=match):

@@ -21,35 +21,15 @@ import numpy as np
 from drjit.llvm import Array2f
 
 from lab.errors import UserError
+from lab.registry import Registry
 
 __all__ = ["Aperture", "CircleAperture", "register_aperture", "get_aperture", "aperture_names",
            "make_aperture"]
 
-_APERTURES: dict[str, type] = {}
-
-
-def register_aperture(name: str):
-    """Class decorator: make an :class:`Aperture` subclass available as ``name``."""
-    def decorate(cls):
-        if name in _APERTURES:
-            raise ValueError(f"aperture {name!r} is registered twice ({_APERTURES[name]} and {cls})")
-        cls.name = name
-        _APERTURES[name] = cls
-        return cls
-    return decorate
-
-
-def aperture_names() -> list[str]:
-    """Names of the registered aperture shapes, sorted."""
-    return sorted(_APERTURES)
-
-
-def get_aperture(name: str) -> type:
-    """The aperture class registered as ``name``; UserError listing the known names otherwise."""
-    try:
-        return _APERTURES[name]
-    except KeyError:
-        raise UserError(f"aperture = {name!r} is unknown; known apertures are {aperture_names()}") from None
+_APERTURES = Registry("aperture")
+register_aperture = _APERTURES.register
+aperture_names = _APERTURES.names
+get_aperture = _APERTURES.get
 
 
 def make_aperture(name: str, **params) -> "Aperture":

@@ -16,36 +16,16 @@ import numpy as np
 
 from lab.config import from_table
 from lab.errors import UserError
+from lab.registry import Registry
 from lab.psf_tracing.space import Box, NestedGrid, boxes
 from lab.psf_tracing.tracer import RayHits, TraceResult, trace_psf
 
 __all__ = ["PSFModel", "register_model", "get_model", "model_names", "load_model"]
 
-_MODELS: dict[str, type] = {}
-
-
-def register_model(name: str):
-    """Class decorator: register a :class:`PSFModel` subclass under ``name``."""
-    def decorate(cls):
-        if name in _MODELS:
-            raise ValueError(f"PSF model {name!r} is registered twice ({_MODELS[name]} and {cls})")
-        cls.name = name
-        _MODELS[name] = cls
-        return cls
-    return decorate
-
-
-def model_names() -> list[str]:
-    """Names of the registered PSF models, sorted."""
-    return sorted(_MODELS)
-
-
-def get_model(name: str) -> type:
-    """The model class registered as ``name``; UserError listing the known names otherwise."""
-    try:
-        return _MODELS[name]
-    except KeyError:
-        raise UserError(f"PSF model {name!r} is unknown; known models are {model_names()}") from None
+_MODELS = Registry("PSF model")
+register_model = _MODELS.register
+model_names = _MODELS.names
+get_model = _MODELS.get
 
 
 def load_model(name: str, table: dict, where: str | None = None) -> "PSFModel":

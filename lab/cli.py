@@ -118,6 +118,9 @@ def main(argv=None) -> int:
     except InputError as exc:
         print(f"splatlab {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except BrokenPipeError:  # e.g. `splatlab db info X | head`: the reader left, nothing to report
+        sys.stderr.close()
+        return 0
     except KeyboardInterrupt:
         print(f"splatlab {args.command}: interrupted; finished shards and caches are kept, "
               "run the command again to resume", file=sys.stderr)

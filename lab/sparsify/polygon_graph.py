@@ -87,57 +87,62 @@ def free_lengths(v, cand_vertex, cand_t):
 
 
 @njit(cache=True)
-def _pair(v, chain, i, ti, j, tj, fwd_a, bwd_b, same_vertex_ok):
-    """(ok, X, pocket area) of the transition from candidate (i, ti) to (j, tj)."""
-    k = v.shape[0]
-    cr = ti[0] * tj[1] - ti[1] * tj[0]
-    if cr <= TOL and cr >= -TOL:
-        return False, 0.0, 0.0, 0.0
-    delta = (j - i) % k
-    if delta == 0:
-        return same_vertex_ok and cr > TOL, v[i, 0], v[i, 1], 0.0
-    wx, wy = v[j, 0] - v[i, 0], v[j, 1] - v[i, 1]
-    s = (wx * tj[1] - wy * tj[0]) / cr
-    s2 = (ti[0] * wy - ti[1] * wx) / cr
-    if s < -TOL or s2 < -TOL or s > fwd_a + TOL or s2 > bwd_b + TOL:
-        return False, 0.0, 0.0, 0.0
-    x, y = v[i, 0] + s * ti[0], v[i, 1] + s * ti[1]
-    twice = chain[i + delta] - chain[i] + (v[j, 0] * y - v[j, 1] * x) + (x * v[i, 1] - y * v[i, 0])
-    if twice > TOL:
-        return False, 0.0, 0.0, 0.0
-    return True, x, y, max(0.0, -0.5 * twice)
-
-
-@njit(cache=True)
 def transitions(v, cand_vertex, cand_t, fwd, bwd):
     """All transitions between candidates sorted by (vertex, angle): src, dst, X, weight."""
     k = v.shape[0]
-    chain = np.zeros(2 * k + 1)
+    chain = np.zeros(2 * k + 1)                       # shoelace terms along the boundary
     for m in range(2 * k):
-        a, b = v[m % k], v[(m + 1) % k]
-        chain[m + 1] = chain[m] + a[0] * b[1] - a[1] * b[0]
+        a, b = m % k, (m + 1) % k
+        chain[m + 1] = chain[m] + v[a, 0] * v[b, 1] - v[a, 1] * v[b, 0]
     n = cand_vertex.size
-    count = 0
-    for a in range(n):
-        for b in range(n):
-            if a != b and _pair(v, chain, cand_vertex[a], cand_t[a], cand_vertex[b], cand_t[b],
-                                fwd[a], bwd[b], b > a)[0]:
-                count += 1
-    src = np.empty(count, np.int64)
-    dst = np.empty(count, np.int64)
-    xy = np.empty((count, 2))
-    weight = np.empty(count)
+    tx, ty = cand_t[:, 0].copy(), cand_t[:, 1].copy()
+    cap = 16 * n + 16
+    src = np.empty(cap, np.int64)
+    dst = np.empty(cap, np.int64)
+    out = np.empty((cap, 3))                          # X and pocket area
     m = 0
     for a in range(n):
+        i = cand_vertex[a]
         for b in range(n):
             if a == b:
                 continue
-            ok, x, y, w = _pair(v, chain, cand_vertex[a], cand_t[a], cand_vertex[b], cand_t[b],
-                                fwd[a], bwd[b], b > a)
-            if ok:
-                src[m], dst[m], xy[m, 0], xy[m, 1], weight[m] = a, b, x, y, w
-                m += 1
-    return src, dst, xy, weight
+            j = cand_vertex[b]
+            cr = tx[a] * ty[b] - ty[a] * tx[b]
+            if abs(cr) <= TOL:
+                continue
+            delta = (j - i) % k
+            if delta == 0:                            # turn at the vertex itself, no pocket
+                if b < a or cr <= TOL:
+                    continue
+                x, y, w = v[i, 0], v[i, 1], 0.0
+            else:
+                wx, wy = v[j, 0] - v[i, 0], v[j, 1] - v[i, 1]
+                s = (wx * ty[b] - wy * tx[b]) / cr
+                if s < -TOL or s > fwd[a] + TOL:
+                    continue
+                s2 = (tx[a] * wy - ty[a] * wx) / cr
+                if s2 < -TOL or s2 > bwd[b] + TOL:
+                    continue
+                x, y = v[i, 0] + s * tx[a], v[i, 1] + s * ty[a]
+                twice = (chain[i + delta] - chain[i] + (v[j, 0] * y - v[j, 1] * x)
+                         + (x * v[i, 1] - y * v[i, 0]))
+                if twice > TOL:                       # counter-clockwise: would hold the polygon
+                    continue
+                w = max(0.0, -0.5 * twice)
+            if m == cap:
+                cap *= 2
+                src, dst, out = _grow(src, cap), _grow(dst, cap), _grow(out, cap)
+            src[m], dst[m] = a, b
+            out[m, 0], out[m, 1], out[m, 2] = x, y, w
+            m += 1
+    return src[:m].copy(), dst[:m].copy(), out[:m, :2].copy(), out[:m, 2].copy()
+
+
+@njit(cache=True)
+def _grow(arr, cap):
+    new = np.empty((cap,) + arr.shape[1:], arr.dtype)
+    new[:arr.shape[0]] = arr
+    return new
 
 
 @njit(cache=True)

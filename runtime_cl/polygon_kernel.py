@@ -4,7 +4,8 @@ The kernel definition the runtime mirrors
 -----------------------------------------
 Coordinates are pixel offsets ``(dx, dy)`` from the splatted pixel, ``dx`` along image columns
 (right), ``dy`` along image rows (down). A polygon has integer vertices (:func:`scale_polygon`
-makes them from a unit polygon and a radius); pixel centres are the integer points.
+makes them from a unit polygon and any real radius >= 0, keeping its edge directions exactly);
+pixel centres are the integer points.
 
 * **Rasterisation** ``K``: a pixel belongs to the kernel iff its centre lies in the *closed*
   polygon: on an edge or vertex (ties on edges are always inside), or of non-zero winding number.
@@ -12,9 +13,11 @@ makes them from a unit polygon and a radius); pixel centres are the integer poin
 * **Vertical difference** ``K1(x, y) = K(x, y) - K(x, y - 1)`` (MHU21 eq. 2): +1 where a column
   enters the kernel, -1 one row below where it leaves.
 * **Grouping** (eq. 3): each non-zero of ``K1`` goes to the direction ``d = (a, b)`` (primitive,
-  ``a >= 1``) of the non-vertical edge that crosses its column between the two rows it compares;
-  at a vertex both edges qualify and the first in polygon order wins. Any grouping reconstructs
-  exactly; this one leaves ``2 a`` non-zeros per edge whatever its length.
+  ``a >= 1``) of the non-vertical edge that crosses its column between the two rows it compares,
+  preferring an edge with the inside below it for +1 (above it for -1), then the first in
+  polygon order (at a vertex both edges cross); if none crosses (radius <= 1 degeneracies) the
+  nearest edge. Any grouping reconstructs exactly; this one leaves ``2 a`` non-zeros per edge of
+  ``a`` or more columns, whatever its length (MHU21 Fig. 5), so the count is constant in r.
 * **Directional difference** (eq. 5): ``K2_d(p) = K1_d(p) - K1_d(p - d)``. Values are small
   integers (+-1, rarely +-2); :class:`DifferencedKernel` stores them sparsely per direction.
 
@@ -322,7 +325,7 @@ def scale_polygon(vertices, directions, radius: float) -> tuple[np.ndarray, np.n
         raise InputError("directions: some edge does not run along +directions[k]; pass the "
                          "rectified polygon's own edge directions")
     target = radius * v
-    for window in range(2, 9):
+    for window in range(2, 6):
         grid = np.stack(np.meshgrid(np.arange(-window, window + 1), np.arange(-window, window + 1)), -1)
         cand = np.round(target)[:, None, :] + grid.reshape(1, -1, 2)      # (n, S, 2)
         cost = ((cand - target[:, None, :]) ** 2).sum(-1)                # (n, S)

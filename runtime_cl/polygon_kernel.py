@@ -57,8 +57,9 @@ def _integer_vertices(vertices, name: str = "vertices") -> np.ndarray:
         raise InputError(f"{name}: expected a finite (n, 2) array of pixel positions, got shape "
                          f"{v.shape}; pass one (x, y) row per vertex")
     if np.any(v != np.round(v)):
-        raise InputError(f"{name}: vertices must be integer pixel positions, got {v[v != np.round(v)][:3]}"
-                         "; scale the unit polygon with scale_polygon(...)")
+        bad = v[v != np.round(v)][:3]
+        raise InputError(f"{name}: vertices must be integer pixel positions, got {bad}; scale "
+                         "the unit polygon with scale_polygon(...)")
     return v.astype(np.int64)
 
 
@@ -206,7 +207,8 @@ def differenced_kernel(vertices, directions=None) -> DifferencedKernel:
     v = _integer_vertices(vertices)
     keep = np.any(v != np.roll(v, 1, axis=0), axis=1)
     v = v[keep] if keep.any() else v[:1]
-    edge_dirs = [edge_direction(*(q - p)) for p, q in zip(v, np.roll(v, -1, axis=0)) if q[0] != p[0]]
+    edge_dirs = [edge_direction(*(q - p)) for p, q in zip(v, np.roll(v, -1, axis=0))
+                 if q[0] != p[0]]
     if directions is None:
         dirs = list(dict.fromkeys(edge_dirs)) or [(1, 0)]
     else:
@@ -238,8 +240,8 @@ def differenced_kernel(vertices, directions=None) -> DifferencedKernel:
         out_v.append(val[nz])
         starts.append(starts[-1] + int(nz.sum()))
     cat = lambda parts: np.concatenate(parts).astype(np.int32)  # noqa: E731
-    return DifferencedKernel(np.asarray(out_d, np.int32).reshape(-1, 2), np.asarray(starts, np.int64),
-                             cat(out_x), cat(out_y), cat(out_v))
+    return DifferencedKernel(np.asarray(out_d, np.int32).reshape(-1, 2),
+                             np.asarray(starts, np.int64), cat(out_x), cat(out_y), cat(out_v))
 
 
 def directional_prefix_sum(values: np.ndarray, direction) -> np.ndarray:
@@ -313,27 +315,29 @@ def scale_polygon(vertices, directions, radius: float) -> tuple[np.ndarray, np.n
     """
     v = np.asarray(vertices, np.float64)
     d = np.asarray(directions, np.int64)
-    if v.ndim != 2 or v.shape[1] != 2 or d.shape != v.shape or len(v) < 3 or not np.isfinite(v).all():
+    if v.ndim != 2 or v.shape[1] != 2 or d.shape != v.shape or len(v) < 3 \
+            or not np.isfinite(v).all():
         raise InputError(f"vertices/directions: need matching finite (n >= 3, 2) arrays, got "
                          f"{v.shape} and {d.shape}; pass one direction per edge")
     if not np.isfinite(radius) or radius < 0:
         raise InputError(f"radius: {radius!r} is not a finite number >= 0; pass a radius in pixels")
     edge = np.roll(v, -1, axis=0) - v
     scale = max(np.abs(v).max(), 1e-300)
-    if (np.abs(edge[:, 0] * d[:, 1] - edge[:, 1] * d[:, 0]) > 1e-6 * scale * np.abs(d).sum(1)).any() \
-            or (np.einsum("ij,ij->i", edge, d) < -1e-9 * scale).any():
+    off_line = np.abs(edge[:, 0] * d[:, 1] - edge[:, 1] * d[:, 0]) > 1e-6 * scale * np.abs(d).sum(1)
+    if off_line.any() or (np.einsum("ij,ij->i", edge, d) < -1e-9 * scale).any():
         raise InputError("directions: some edge does not run along +directions[k]; pass the "
                          "rectified polygon's own edge directions")
     target = radius * v
     for window in range(2, 6):
-        grid = np.stack(np.meshgrid(np.arange(-window, window + 1), np.arange(-window, window + 1)), -1)
-        cand = np.round(target)[:, None, :] + grid.reshape(1, -1, 2)      # (n, S, 2)
+        steps = np.arange(-window, window + 1)
+        grid = np.stack(np.meshgrid(steps, steps), -1).reshape(1, -1, 2)
+        cand = np.round(target)[:, None, :] + grid                        # (n, S, 2)
         cost = ((cand - target[:, None, :]) ** 2).sum(-1)                # (n, S)
         allowed = [_steps(cand[k], cand[(k + 1) % len(v)], d[k]) for k in range(len(v))]
-        acc = np.where(np.eye(cand.shape[1], dtype=bool), cost[0][:, None], np.inf)  # (start, node)
+        acc = np.where(np.eye(cand.shape[1], dtype=bool), cost[0][:, None], np.inf)  # start, node
         back = []
         for k in range(1, len(v)):
-            trial = acc[:, :, None] + np.where(allowed[k - 1], 0.0, np.inf)[None]  # (start, i, j)
+            trial = acc[:, :, None] + np.where(allowed[k - 1], 0.0, np.inf)[None]   # start, i, j
             back.append(trial.argmin(axis=1))
             acc = trial.min(axis=1) + cost[k][None, :]
         close = acc + np.where(allowed[-1], 0.0, np.inf).T                       # (start, last)
@@ -365,7 +369,8 @@ def _simplify(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     changed = True
     while changed and len(w) > 2:
         e_in, e_out = w - np.roll(w, 1, axis=0), np.roll(w, -1, axis=0) - w
-        straight = (e_in[:, 0] * e_out[:, 1] == e_in[:, 1] * e_out[:, 0]) & ((e_in * e_out).sum(1) > 0)
+        parallel = e_in[:, 0] * e_out[:, 1] == e_in[:, 1] * e_out[:, 0]
+        straight = parallel & ((e_in * e_out).sum(1) > 0)
         changed = bool(straight.any())
         if changed:
             w = np.delete(w, np.flatnonzero(straight)[0], axis=0)

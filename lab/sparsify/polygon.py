@@ -119,7 +119,7 @@ def _as_polygon(vertices) -> np.ndarray:
         raise UserError(f"vertices: a polygon needs 3 or more distinct vertices, got {len(v)}")
     if not shapely.LinearRing(v).is_simple:
         raise UserError("vertices: the polygon intersects itself; pass a simple polygon (edges "
-                        "meet only at shared vertices), e.g. reorder the vertices along the outline")
+                        "meet only at shared vertices), e.g. order the vertices along the outline")
     if shapely.Polygon(v).area <= 1e-12 * np.ptp(v, axis=0).max() ** 2:
         raise UserError("vertices: the polygon has zero area; pass a proper outline")
     return v
@@ -187,7 +187,8 @@ def rectify(vertices, directions, max_edges: int) -> Rectified:
     cycle, by_edges = _traverse(len(cand_v), src, dst, weight, max_edges)
     t2 = time.perf_counter()
     if cycle is None:
-        smallest = _traverse(len(cand_v), src, dst, weight, max(2 * len(dirs), max_edges + 1) + 8)[0]
+        enough = max(2 * len(dirs), max_edges + 1) + 8
+        smallest = _traverse(len(cand_v), src, dst, weight, enough)[0]
         hint = f"the smallest feasible N is {len(smallest)}" if smallest else "no N found"
         raise UserError(f"max_edges: N={max_edges} is too small to enclose this polygon with "
                         f"edges along {dirs.tolist()}; {hint}")

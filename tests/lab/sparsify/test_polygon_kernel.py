@@ -7,8 +7,10 @@ import shapely
 from scipy.signal import convolve2d
 
 from runtime_cl.errors import InputError
-from runtime_cl.polygon_kernel import (differenced_kernel, directional_prefix_sum, rasterize_polygon,
-                                       reconstruct, scale_polygon)
+from lab.sparsify.polygon import direction_set, rectify
+from lab.sparsify.polygon_shapes import SHAPES, shape
+from runtime_cl.polygon_kernel import (differenced_kernel, directional_prefix_sum,
+                                       rasterize_polygon, reconstruct, scale_polygon)
 
 T = math.tan(math.pi / 8)
 OCTAGON = np.array([(1, -T), (1, T), (T, 1), (-T, 1), (-1, T), (-1, -T), (-T, -1), (T, -1)])
@@ -65,7 +67,8 @@ def test_rasteriser_ties_on_edges_are_inside():
 def test_reconstruction_is_exact_for_random_polygons(simple):
     rng = np.random.default_rng(1 if simple else 2)
     for _ in range(150):
-        assert_reconstructs(random_polygon(rng, int(rng.integers(3, 10)), float(rng.uniform(1, 25)), simple))
+        n, radius = int(rng.integers(3, 10)), float(rng.uniform(1, 25))
+        assert_reconstructs(random_polygon(rng, n, radius, simple))
 
 
 def test_octagon_terms_are_constant_in_radius_and_two_per_run():
@@ -74,6 +77,15 @@ def test_octagon_terms_are_constant_in_radius_and_two_per_run():
         v, d = scale_polygon(OCTAGON, OCTAGON_DIRS, r)
         counts[r] = assert_reconstructs(v).nnz
     assert set(counts.values()) == {12}                   # 2 horizontal + 4 diagonal edges, 2 each
+
+
+@pytest.mark.parametrize("name", SHAPES)
+def test_rectified_shapes_have_two_terms_per_column_of_run_at_every_large_radius(name):
+    unit, dirs = rectify(shape(name), direction_set(2), 16).unit()
+    for r in (40, 90, 150):
+        v, d = scale_polygon(unit, dirs, r)
+        assert len(v) == len(unit)                        # no edge vanished at this radius
+        assert assert_reconstructs(v, dirs).nnz == 2 * np.abs(d[:, 0]).sum()
 
 
 def test_terms_per_edge_grow_with_the_run_of_the_direction():
@@ -140,7 +152,8 @@ def test_prefix_sum_inverts_the_directional_difference():
         diff = k.copy()
         a, b = d
         shifted = np.zeros_like(k)
-        shifted[max(b, 0):k.shape[0] + min(b, 0), a:] = k[max(-b, 0):k.shape[0] - max(b, 0), :k.shape[1] - a]
+        h, w = k.shape
+        shifted[max(b, 0):h + min(b, 0), a:] = k[max(-b, 0):h - max(b, 0), :w - a]
         diff = k - shifted
         np.testing.assert_array_equal(directional_prefix_sum(diff, d), k)
 

@@ -82,10 +82,11 @@ def check_result(res, v, dirs, max_edges):
 
 
 def test_direction_set_is_mhu21s_d():
-    assert {tuple(d) for d in direction_set(2)} == {(1, 0), (0, 1), (1, 1), (1, -1), (1, 2), (1, -2),
-                                                    (2, 1), (2, -1)}
+    assert {tuple(d) for d in direction_set(2)} == {(1, 0), (0, 1), (1, 1), (1, -1), (1, 2),
+                                                    (1, -2), (2, 1), (2, -1)}
     assert len(direction_set(1)) == 4 and len(direction_set(3)) == 16
-    np.testing.assert_array_equal(normalize_directions([(2, 4), (-1, -2), (0, -3)]), [(1, 2), (0, 1)])
+    np.testing.assert_array_equal(normalize_directions([(2, 4), (-1, -2), (0, -3)]),
+                                  [(1, 2), (0, 1)])
 
 
 @pytest.mark.parametrize("name", ["hexagon", "octagon", "dodecagon", "hexadecagon"])

@@ -77,34 +77,103 @@ def bench_runtime(scene_path, repeats: int) -> Path:
     return _write("runtime", data)
 
 
-def bench_precompute(repeats: int) -> Path:
-    """PSF tracing throughput (M rays/s) and sparsification time per PSF at LSR18's defaults."""
+# What a model needs beyond its defaults for a benchmark: SimpleLens's CoC range is the scene's
+# to decide; 250 px is the demo scene's scale (1024^2, 85 mm at f/1.4).
+BENCH_TABLES = {"simple_lens": {"max_coc_px": 250.0}}
+
+
+def _bench_models(models) -> list[str]:
+    from .errors import UserError
+    from .psf_tracing.models import model_names
+
+    known = model_names()
+    if models is None:
+        return known
+    names = [m.strip() for m in str(models).split(",") if m.strip()]
+    unknown = [m for m in names if m not in known]
+    if unknown or not names:
+        raise UserError(f"--models {models!r}: unknown model(s) {unknown}; registered models are {known}")
+    return names
+
+
+def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int) -> dict:
+    """One model: tracing M rays/s, sparsify time of its largest PSF, and optionally the database build."""
+    from runtime_cl.database import SpreadletDatabase
+
+    from .config import to_table
+    from .errors import UserError
+    from .precompute import precompute
     from .psf_tracing.benchmark import measure_throughput
     from .psf_tracing.models import load_model
+    from .report.atlas import write_atlas
+    from .report.table1 import table1_row
     from .sparsify.spreadlets import sparsify
 
-    model = load_model("simple_lens", {"max_coc_px": 250.0})
-    trace = measure_throughput(model, repeats=repeats).to_json()
-    sparsify_s = {}
-    for cell in (model.grid.size // 2, 3 * model.grid.size // 4, model.grid.size - 1):
-        traced = model.trace_checked(cell)
-        t = time.perf_counter()
-        sp = sparsify(traced.psf, seed=cell, rays=traced.n_rays)
-        radius = round(model.boxes[cell].centre[0], 1)
-        sparsify_s[f"r={radius}px"] = {"seconds": time.perf_counter() - t, **sp.stats}
-    data = {"trace": trace, "sparsify": sparsify_s,
-            "targets": {"trace_Mrays_per_s": ">= 35 (LSR18: 700 M rays per PSF in ~20 s on a GPU)"}}
+    try:
+        model = load_model(name, table, f"bench precompute {name}")
+    except UserError as exc:
+        return {"error": str(exc)}
+    entry = {"config": to_table(model.config), "trace": measure_throughput(model, repeats=repeats).to_json()}
+    cell = model.grid.size - 1
+    traced = model.trace_checked(cell)
+    t = time.perf_counter()
+    sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=traced.n_rays)
+    entry["sparsify_largest"] = {"cell": cell, "seconds": time.perf_counter() - t, **sp.stats}
+    if build:
+        r = precompute(model, force=True, workers=workers)
+        db = SpreadletDatabase.load(r.path, expect_model=name)
+        entry["build"] = {"seconds": r.seconds, "workers": workers, "executor": r.executor, "cells": r.cells,
+                          "rays": r.rays, "trace_seconds": r.trace_seconds,
+                          "sparsify_seconds": r.sparsify_seconds, "path": str(r.path)}
+        entry["table1"] = table1_row(db)
+        entry["atlas"] = str(write_atlas(db, BENCH_DIR / "atlas" / name).png)
+    return entry
+
+
+def bench_precompute(repeats: int, models=None, build: bool = True, workers: int = 1,
+                     tables: dict | None = None) -> Path:
+    """Per registered PSF model: tracing M rays/s, and the wall time to build its database.
+
+    Parameters
+    ----------
+    repeats : int
+        Timed traces per model after a warm-up; the best counts (the machine is shared).
+    models : str, optional
+        Comma-separated model names (default: every registered model).
+    build : bool, default True
+        Also build each database at default settings (minutes per model), with LSR18 Table 1
+        (``reports/bench/table1.md``) and a PSF atlas per model (``reports/bench/atlas/``).
+    workers : int, default 1
+        Local worker processes for the builds.
+    tables : dict, optional
+        Model name -> settings replacing :data:`BENCH_TABLES` (tests use small ones).
+    """
+    from .precompute.executors import check_workers
+    from .report.table1 import write_table1
+
+    check_workers(workers)
+    names = _bench_models(models)
+    tables = BENCH_TABLES if tables is None else tables
+    results = {name: _bench_model(name, dict(tables.get(name, {})), repeats, build, workers)
+               for name in names}
+    rows = [r["table1"] for r in results.values() if "table1" in r]
+    data = {"models": results, "repeats": repeats,
+            "targets": {"trace_Mrays_per_s": ">= 35 for physical_lens (LSR18: 700 M rays per PSF in "
+                                             "~20 s on a GPU)"}}
+    if rows:
+        data["table1_markdown"] = str(write_table1(rows, BENCH_DIR)[0])
     return _write("precompute", data)
 
 
-def run_bench(what: str, scene_path, repeats: int) -> list[Path]:
+def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,
+              workers: int = 1) -> list[Path]:
     from .errors import UserError
 
     if not (isinstance(repeats, int) and repeats >= 1):
         raise UserError(f"--repeats {repeats}: must be an integer >= 1")
     out = []
     if what in ("precompute", "all"):
-        out.append(bench_precompute(repeats))
+        out.append(bench_precompute(repeats, models, build, workers))
     if what in ("runtime", "all"):
         out.append(bench_runtime(scene_path, repeats))
     return out

@@ -24,6 +24,19 @@ one line naming the file, the value and the fix.
 """
 
 
+PRECOMPUTE_EPILOG = """\
+examples:
+  splatlab precompute simple_lens --set max_coc_px=64            one model, defaults + overrides
+  splatlab precompute simple_lens --set max_coc_px=64 --workers 2 --atlas reports/atlas
+  splatlab precompute scenes/demo.toml                           every model the scene's plan needs
+  splatlab precompute simple_lens --set max_coc_px=250 --scheduler tcp://10.0.0.5:8786
+
+A Dask cluster: `dask scheduler` on one machine, `dask worker tcp://HOST:8786 --nthreads 1
+--nworkers K` on each worker machine (same splatlab version; workers need not share files).
+Interrupt at any time (Ctrl-C, a killed job, a lost node): the same command resumes.
+"""
+
+
 def _add_scene(p):
     p.add_argument("scene", type=Path, help="scene file (TOML), e.g. scenes/demo.toml")
 
@@ -32,9 +45,12 @@ DESCRIPTIONS = {
     "plan": "Read a scene file and print the effects it calls for (depth of field, motion, medium, "
             "chromatic aberration, aperture), the PSF models that will be precomputed, the references "
             "and runtime passes that will run, and what is skipped with the reason. Nothing is computed.",
-    "precompute": "Light-trace (Dr.Jit LLVM) and sparsify (LSR18 5.5) every PSF database the scene's plan "
-                  "needs. Each PSF is written as its own shard, so an interrupted job resumes; the result "
-                  "is cached under .cache/db/ by a hash of the model, its configuration and the code.",
+    "precompute": "Light-trace (Dr.Jit LLVM) and sparsify (LSR18 5.5) the spreadlet database of one "
+                  "registered PSF model (its defaults plus --set KEY=VALUE), or of every model a scene's plan "
+                  "needs. Each PSF is written as its own shard, atomically, so an interrupted job resumes "
+                  "where it stopped; cells run here, in --workers N local processes or on a Dask cluster "
+                  "(--scheduler), with the same database bitwise. The result is cached under .cache/db/ by "
+                  "a hash of the model, its configuration and the code: unchanged settings reuse it.",
     "reference": "Render the Mitsuba 3 path-traced reference (through the scene's thin lens) and the "
                  "pinhole labelled-pixel input EXR (R, G, B, A, Z and the splatlab.camera header).",
     "render": "Render a labelled-pixel EXR (from `splatlab reference` or any renderer that writes R, G, B, "
@@ -66,10 +82,25 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plan", description=DESCRIPTIONS["plan"], help="print the effects a scene calls for and what will run or be skipped")
     _add_scene(p)
 
-    p = sub.add_parser("precompute", description=DESCRIPTIONS["precompute"], help="light-trace and sparsify the PSF databases a scene needs")
-    _add_scene(p)
+    p = sub.add_parser("precompute", description=DESCRIPTIONS["precompute"],
+                       help="light-trace and sparsify a PSF model's database (or those a scene needs)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog=PRECOMPUTE_EPILOG)
+    p.add_argument("target", metavar="MODEL|SCENE",
+                   help="a registered PSF model name (e.g. simple_lens) or a scene file (TOML)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
+                   help="override a model setting (repeatable; TOML values: 64, 2.5, true, [2, 1], circle)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=1, metavar="N",
+                       help="local worker processes, each tracing whole cells (default 1)")
+    where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help="run the cells on this Dask distributed scheduler's workers")
+    p.add_argument("--threads", type=int, metavar="T", help="Dr.Jit threads per worker process "
+                   "(default: cores / workers; with --scheduler, cores of the host / its task slots)")
     p.add_argument("--out", type=Path, help="copy the database here too (it is always cached by content hash)")
+    p.add_argument("--atlas", type=Path, metavar="DIR", help="write the PSF atlas (PNG) and LSR18 Table 1 "
+                   "(table.md, table.json) of each database to DIR/<model>/")
     p.add_argument("--force", action="store_true", help="rebuild even when a database with this hash exists")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     p = sub.add_parser("reference", description=DESCRIPTIONS["reference"], help="render the Mitsuba reference and the pinhole labelled-pixel input")
     _add_scene(p)
@@ -95,9 +126,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", description=DESCRIPTIONS["bench"], help="benchmarks; JSON under reports/bench/")
     p.add_argument("what", choices=("runtime", "precompute", "all"),
                    help="runtime: spreadlets vs Splat vs Filter and kernel throughput at 1024^2 on the "
-                        "demo scene; precompute: PSF tracing in M rays/s")
+                        "demo scene; precompute: M rays/s per PSF model, and (unless --no-build) the "
+                        "wall time to build each model's database at default settings, LSR18 Table 1 "
+                        "and a PSF atlas per model")
     p.add_argument("--scene", type=Path, default=DEMO_SCENE, help="scene to benchmark (default: demo)")
     p.add_argument("--repeats", type=int, default=5, help="timed repetitions after warm-up (default 5)")
+    p.add_argument("--models", metavar="NAME[,NAME...]",
+                   help="precompute: only these registered models (default: all)")
+    p.add_argument("--no-build", action="store_true",
+                   help="precompute: measure rays/s only, skip the (minutes-long) database builds")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="precompute: local worker processes for the database builds (default 1)")
 
     p = sub.add_parser("db", description=DESCRIPTIONS["db"], help="spreadlet database tools")
     dbsub = p.add_subparsers(dest="db_command", required=True, metavar="DB_COMMAND")

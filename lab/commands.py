@@ -21,22 +21,61 @@ def cmd_plan(args) -> int:
     return 0
 
 
-def cmd_precompute(args) -> int:
-    from .pipeline import build_databases, inputs_and_reference, load_scene_and_plan
+def _scene_models(scene_path) -> list:
+    """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC range)."""
+    from .pipeline import inputs_and_reference, load_scene_and_plan, model_table
+    from .psf_tracing.models import load_model
 
-    scene, plan = load_scene_and_plan(args.scene)
+    scene, plan = load_scene_and_plan(scene_path)
     if not plan.psf_models:
-        print(f"{args.scene}: the plan needs no PSF database (see `splatlab plan {args.scene}`)")
-        return 0
-    # The scene's CoC range comes from its labelled-pixel input (cached like every render).
+        return []
     image, _, _ = inputs_and_reference(scene, plan)
-    for name, result in build_databases(scene, plan, image, force=args.force).items():
-        state = "reused" if result.reused else f"built in {result.seconds:.1f} s"
-        print(f"{name}: {result.path} ({state})")
+    return [load_model(name, model_table(scene, name, image), f"{scene.source} [psf.{name}]")
+            for name in plan.psf_models]
+
+
+def cmd_precompute(args) -> int:
+    from .precompute import precompute
+    from .precompute.executors import check_scheduler, check_workers
+    from .precompute.target import load_target_model, resolve_target
+
+    check_workers(args.workers)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    target = resolve_target(args.target)
+    if target.kind == "model":
+        models = [load_target_model(target.name, args.sets)]
+    else:
+        if args.sets:
+            raise UserError(f"--set with scene {target.path}: --set configures a model name; edit the "
+                            "scene's [psf.<model>] table instead")
+        models = _scene_models(target.path)
+        if not models:
+            print(f"{target.path}: the plan needs no PSF database (see `splatlab plan {target.path}`)")
+            return 0
+        if args.out and len(models) > 1:
+            raise UserError(f"--out {args.out}: the scene needs {len(models)} databases; drop --out "
+                            "(each is cached under .cache/db/) or precompute one model by name")
+    for model in models:
+        r = precompute(model, force=args.force, progress=not args.quiet, workers=args.workers,
+                       scheduler=args.scheduler, threads=args.threads)
+        if r.reused:
+            state = "reused"
+        else:
+            pace = f", {r.rays / r.trace_seconds / 1e6:.1f} M rays/s per worker" if r.trace_seconds else ""
+            state = f"built in {r.seconds:.1f} s: {r.cells} PSFs on {r.executor}{pace}"
+        print(f"{model.name}: {r.path} ({state})")
         if args.out:
             args.out.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(result.path, args.out)
-            print(f"{name}: copied to {args.out}")
+            shutil.copyfile(r.path, args.out)
+            print(f"{model.name}: copied to {args.out}")
+        if args.atlas:
+            from runtime_cl.database import SpreadletDatabase
+
+            from .report.atlas import write_atlas
+
+            written = write_atlas(SpreadletDatabase.load(r.path), args.atlas / model.name)
+            print(f"{model.name}: atlas {written.png}, table {written.markdown}")
     return 0
 
 
@@ -101,7 +140,8 @@ def cmd_demo(args) -> int:
 def cmd_bench(args) -> int:
     from .bench import run_bench
 
-    for path in run_bench(args.what, args.scene, args.repeats):
+    for path in run_bench(args.what, args.scene, args.repeats, models=args.models,
+                          build=not args.no_build, workers=args.workers):
         print(f"benchmark: {path}")
     return 0
 

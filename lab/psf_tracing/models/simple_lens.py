@@ -8,7 +8,10 @@ plane, which exists for every r), a point of the aperture, and the physical path
 point -> aperture -> thin lens -> sensor, binned in image orientation.
 
 On the near side the image PSF is the aperture rotated by 180 degrees; for the circle that is the
-same disc. (Odd-bladed apertures would need the sign of the CoC as a coordinate.)
+same disc. Other apertures (``aperture = "polygon"`` with ``aperture_blades`` etc., see
+:class:`~lab.psf_tracing.models.common.ApertureKeys`) are not rotation invariant: the model then
+lists the symmetry ``coc_sign`` instead of ``rotation`` -- a runtime draws points behind the focal
+plane with the stored PSF rotated by 180 degrees (it matters for odd blade counts).
 """
 from __future__ import annotations
 
@@ -16,12 +19,11 @@ import math
 from dataclasses import dataclass
 from functools import cached_property
 
-from drjit.llvm import Array2f
-
 from lab.errors import UserError
-from lab.optics.aperture import Aperture, make_aperture
+from lab.optics.aperture import Aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.models.base import PSFModel, register_model
+from lab.psf_tracing.models.common import ApertureKeys
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH, RayHits
 
@@ -47,7 +49,7 @@ def _positive(name, value, integer=False, zero_ok=False):
 
 
 @dataclass(frozen=True)
-class SimpleLensConfig:
+class SimpleLensConfig(ApertureKeys):
     """Settings of the SimpleLens model (a scene's ``[psf.simple_lens]`` table).
 
     Parameters
@@ -73,7 +75,8 @@ class SimpleLensConfig:
     seed : int, default 0
         Random seed (>= 0); same seed, same PSFs bitwise.
     aperture : str, default "circle"
-        Aperture shape (see :func:`lab.optics.aperture.aperture_names`).
+        Aperture shape (see :func:`lab.optics.aperture.aperture_names`); its parameters are the
+        other ``aperture_*`` keys of :class:`~lab.psf_tracing.models.common.ApertureKeys`.
     lens_focal_length_mm, lens_f_number, lens_focus_distance_m, lens_sensor_width_mm : float
         The canonical thin lens (defaults 50 mm, f/2, 2 m, 36 mm). The PSFs do not depend on it
         beyond rounding; it only makes the traced path physical.
@@ -90,7 +93,6 @@ class SimpleLensConfig:
     rays_per_launch: int = 2 ** 22
     density: float = 1.0
     seed: int = 0
-    aperture: str = "circle"
     lens_focal_length_mm: float = 50.0
     lens_f_number: float = 2.0
     lens_focus_distance_m: float = 2.0
@@ -112,7 +114,7 @@ class SimpleLensConfig:
                 f"psf_resolution = {self.psf_resolution} cannot hold a CoC of radius max_coc_px = "
                 f"{self.max_coc_px} plus a {PSF_MARGIN_PX}-pixel margin around the centre pixel; "
                 f"use psf_resolution >= {need} (or a smaller max_coc_px)")
-        make_aperture(self.aperture)
+        self.check_aperture()
         try:
             self.lens
         except UserError as exc:
@@ -131,13 +133,17 @@ class SimpleLens(PSFModel):
     """Thin-lens DoF PSFs indexed by |CoC radius| in pixels (LSR18's SimpleLens)."""
 
     Config = SimpleLensConfig
-    symmetries = ("rotation",)  # the disc is rotation invariant: no angle dimension
     channels = 1
 
     def __init__(self, config: SimpleLensConfig):
         super().__init__(config)
         self.lens: ThinLens = config.lens
-        self.aperture: Aperture = make_aperture(config.aperture)
+        self.aperture: Aperture = config.build_aperture()
+
+    @property
+    def symmetries(self) -> tuple[str, ...]:
+        """("rotation",) for the circle (no angle dimension); ("coc_sign",) for other shapes."""
+        return ("rotation",) if self.config.aperture == "circle" else ("coc_sign",)
 
     @cached_property
     def grid(self) -> NestedGrid:
@@ -155,6 +161,5 @@ class SimpleLens(PSFModel):
         """Per ray: |CoC| r (pixels) -> near-side depth -> aperture point -> sensor, image pixels."""
         width = self.config.lens_width_px
         inv_depth = self.lens.inv_depth_for_coc_px(-coords[0], width)
-        u = Array2f(rng.next_float32(), rng.next_float32())
-        h = self.aperture.sample(u) * self.lens.aperture_radius_m
+        h = self.aperture.sample_rng(rng) * self.lens.aperture_radius_m
         return RayHits(self.lens.psf_offset_px(h, inv_depth, width))

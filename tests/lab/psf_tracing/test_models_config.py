@@ -70,7 +70,7 @@ def test_min_resolution():
     ({"max_coc_px": 10.0, "max_coc": 10.0}, r"unknown key\(s\) \['max_coc'\]"),
     ({"psf_resolution": 64}, r"missing key\(s\) \['max_coc_px'\]"),
     ({"max_coc_px": 10.0, "samples": 1.5}, "integer"),
-    ({"max_coc_px": 10.0, "aperture": "heart"}, "known apertures"),
+    ({"max_coc_px": 10.0, "aperture": "kidney"}, "known apertures"),
     ({"max_coc_px": 10.0, "lens_focus_distance_m": 0.01}, "canonical lens"),
     ({"max_coc_px": float("inf")}, "max_coc_px"),
 ])

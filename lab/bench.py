@@ -77,9 +77,11 @@ def bench_runtime(scene_path, repeats: int) -> Path:
     return _write("runtime", data)
 
 
-# What a model needs beyond its defaults for a benchmark: SimpleLens's CoC range is the scene's
-# to decide; 250 px is the demo scene's scale (1024^2, 85 mm at f/1.4).
-BENCH_TABLES = {"simple_lens": {"max_coc_px": 250.0}}
+# What a model needs beyond its defaults for a benchmark: CoC and motion ranges are the scene's to
+# decide; 250 px is the demo scene's largest CoC (1024^2, 85 mm at f/1.4). Combined splits the
+# same 512^2 PSF image between CoC (125 px) and motion (250 px long).
+BENCH_TABLES = {"simple_lens": {"max_coc_px": 250.0}, "stylized": {"max_coc_px": 250.0},
+                "combined": {"max_coc_px": 125.0, "max_motion_px": 250.0}}
 
 
 def _bench_models(models) -> list[str]:
@@ -89,7 +91,7 @@ def _bench_models(models) -> list[str]:
     known = model_names()
     if models is None:
         return known
-    names = [m.strip() for m in str(models).split(",") if m.strip()]
+    names = list(dict.fromkeys(m.strip() for m in str(models).split(",") if m.strip()))
     unknown = [m for m in names if m not in known]
     if unknown or not names:
         raise UserError(f"--models {models!r}: unknown model(s) {unknown}; registered models are {known}")
@@ -97,7 +99,8 @@ def _bench_models(models) -> list[str]:
 
 
 def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int) -> dict:
-    """One model: tracing M rays/s, sparsify time of its largest PSF, and optionally the database build."""
+    """One model: tracing M rays/s, then its database build (wall time, Table 1 row, atlas) or,
+    with ``build=False``, the sparsify time of its largest PSF."""
     from runtime_cl.database import SpreadletDatabase
 
     from .config import to_table
@@ -114,19 +117,21 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
     except UserError as exc:
         return {"error": str(exc)}
     entry = {"config": to_table(model.config), "trace": measure_throughput(model, repeats=repeats).to_json()}
-    cell = model.grid.size - 1
-    traced = model.trace_checked(cell)
-    t = time.perf_counter()
-    sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=traced.n_rays)
-    entry["sparsify_largest"] = {"cell": cell, "seconds": time.perf_counter() - t, **sp.stats}
-    if build:
-        r = precompute(model, force=True, workers=workers)
-        db = SpreadletDatabase.load(r.path, expect_model=name)
-        entry["build"] = {"seconds": r.seconds, "workers": workers, "executor": r.executor, "cells": r.cells,
-                          "rays": r.rays, "trace_seconds": r.trace_seconds,
-                          "sparsify_seconds": r.sparsify_seconds, "path": str(r.path)}
-        entry["table1"] = table1_row(db)
-        entry["atlas"] = str(write_atlas(db, BENCH_DIR / "atlas" / name).png)
+    if not build:  # the build's totals say the same for every cell
+        cell = model.grid.size - 1
+        traced = model.trace_checked(cell)
+        t = time.perf_counter()
+        sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=traced.n_rays)
+        entry["sparsify_largest"] = {"cell": cell, "rays": traced.n_rays,
+                                     "seconds": time.perf_counter() - t, **sp.stats}
+        return entry
+    r = precompute(model, force=True, workers=workers)
+    db = SpreadletDatabase.load(r.path, expect_model=name)
+    entry["build"] = {"seconds": r.seconds, "workers": workers, "executor": r.executor, "cells": r.cells,
+                      "rays": r.rays, "trace_seconds": r.trace_seconds,
+                      "sparsify_seconds": r.sparsify_seconds, "path": str(r.path)}
+    entry["table1"] = table1_row(db)
+    entry["atlas"] = str(write_atlas(db, BENCH_DIR / "atlas" / name).png)
     return entry
 
 

@@ -8,9 +8,9 @@ cell order.
 
 Threads: Dr.Jit runs one thread pool per process, by default on every core. ``N`` local
 workers each get ``max(1, cores // N)`` Dr.Jit threads so they do not oversubscribe the CPU;
-on Dask every worker process gets ``max(1, cores of its host // task slots on its host)`` unless
-``threads`` is given. Start Dask workers with one task slot each (``dask worker ADDRESS
---nthreads 1 --nworkers K``): a slot is a process tracing with its own pool.
+on Dask every worker process gets ``max(1, cores of its host // worker processes on its host)``
+unless ``threads`` is given. Start Dask workers with one task slot each (``dask worker ADDRESS
+--nthreads 1 --nworkers K``): tasks sharing a process also share its one Dr.Jit pool.
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import concurrent.futures as cf
 import multiprocessing
 import os
 import re
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Iterable, Iterator
 
@@ -27,7 +28,7 @@ from .cell import CellJob, build_cell, run_cell, set_threads
 from .shards import summary, write_shard
 
 __all__ = ["usable_cores", "check_workers", "check_scheduler", "run_serial", "run_processes",
-           "run_dask", "DASK_TIMEOUT_S"]
+           "connect", "dask_threads", "run_dask", "DASK_TIMEOUT_S"]
 
 DASK_TIMEOUT_S = 20.0
 _ADDRESS = re.compile(r"^(tcp|tls|inproc|ws|wss|ucx)://[^\s:/]+(:\d{1,5})?/?$")
@@ -84,13 +85,16 @@ def run_processes(job: CellJob, folder: Path, cells: Iterable[int], workers: int
     pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
     def wait_some(pending):
-        done, rest = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
-        return done, rest
+        return cf.wait(pending, return_when=cf.FIRST_COMPLETED)
 
     try:
         for future in _windowed(lambda c: pool.submit(run_cell, job, c, str(folder)), cells,
                                 2 * workers, wait_some):
             yield future.result()
+    except BrokenProcessPool:
+        raise UserError(f"precompute: a worker process died (out of memory or killed); finished "
+                        f"shards are kept in {folder}: run the command again to resume, with fewer "
+                        "--workers if memory is short") from None
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
 
@@ -100,14 +104,14 @@ def _cores() -> int:  # runs on a Dask worker
 
 
 def dask_threads(client) -> dict:
-    """Dr.Jit threads per Dask worker address: its host's cores over the task slots on that host."""
+    """Dr.Jit threads per Dask worker address: its host's cores over the worker processes on that
+    host (a process's task slots share its one Dr.Jit thread pool)."""
     workers = client.scheduler_info(n_workers=-1)["workers"]
     cores = client.run(_cores)
-    slots: dict = {}
+    processes: dict = {}
     for info in workers.values():
-        slots[info["host"]] = slots.get(info["host"], 0) + int(info["nthreads"])
-    return {addr: max(1, cores.get(addr, 1) // max(1, slots[info["host"]]))
-            for addr, info in workers.items()}
+        processes[info["host"]] = processes.get(info["host"], 0) + 1
+    return {addr: max(1, cores.get(addr, 1) // processes[info["host"]]) for addr, info in workers.items()}
 
 
 def connect(address: str, timeout: float | None = None):
@@ -160,7 +164,11 @@ def run_dask(job: CellJob, folder: Path, cells: Iterable[int], client) -> Iterat
         top_up()
         for future in finished:
             del live[future.key]
-            shard = future.result()
+            try:
+                shard = future.result()
+            except ImportError as exc:
+                raise UserError(f"a Dask worker cannot import splatlab ({exc}); install the same "
+                                "splatlab version in every worker's environment") from None
             future.release()
             write_shard(folder, shard)
             yield summary(shard)

@@ -1,5 +1,6 @@
 """`splatlab precompute MODEL` end to end, and `splatlab bench precompute` on a small model."""
 import json
+from pathlib import Path
 
 import pytest
 
@@ -40,7 +41,7 @@ def test_bench_precompute_small(cache, tmp_path, monkeypatch):
     entry = data["models"]["simple_lens"]
     assert entry["trace"]["mrays_per_second"] > 0 and entry["trace"]["n_rays"] == SMALL["rays_per_psf"]
     assert entry["build"]["seconds"] > 0 and entry["build"]["cells"] == entry["table1"]["samples"]
-    assert entry["sparsify_largest"]["seconds"] > 0
+    assert entry["build"]["trace_seconds"] > 0 and entry["build"]["sparsify_seconds"] > 0
     assert (tmp_path / "bench" / "atlas" / "simple_lens" / "atlas.png").exists()
     assert "simple_lens (ours)" in (tmp_path / "bench" / "table1.md").read_text()
     assert json.loads((tmp_path / "bench" / "precompute-latest.json").read_text())["models"]
@@ -65,3 +66,33 @@ def test_bench_records_a_model_that_needs_settings(cache, tmp_path, monkeypatch)
     path = bench.bench_precompute(1, models="simple_lens", build=False, tables={})
     entry = json.loads(path.read_text())["models"]["simple_lens"]
     assert "max_coc_px" in entry["error"]
+
+
+def test_bench_without_build_times_the_largest_psf(cache, tmp_path, monkeypatch):
+    from lab import bench
+
+    monkeypatch.setattr(bench, "BENCH_DIR", tmp_path / "bench")
+    path = bench.bench_precompute(1, models="simple_lens", build=False, tables={"simple_lens": SMALL})
+    entry = json.loads(path.read_text())["models"]["simple_lens"]
+    assert "build" not in entry and entry["trace"]["mrays_per_second"] > 0
+    assert entry["sparsify_largest"]["seconds"] > 0 and entry["sparsify_largest"]["rays"] >= SMALL["rays_per_psf"]
+    assert not list(Path(tmp_path / "bench").glob("table1.md"))
+
+
+@pytest.mark.slow
+def test_precompute_scene_with_workers_matches_serial(cache, tmp_path, capsys):
+    """A scene target: its plan's models, configured from its labelled-pixel input, on 2 workers."""
+    import shutil
+
+    from precompute_helpers import ROOT
+
+    tiny = str(ROOT / "scenes" / "tiny.toml")
+    assert main(["precompute", tiny, "--quiet", "--workers", "2"]) == 0
+    (line,) = [s for s in capsys.readouterr().out.splitlines() if s.startswith("simple_lens:")]
+    assert "PSFs on processes" in line
+    parallel = tmp_path / "parallel.spdb"
+    shutil.copyfile(line.split()[1], parallel)
+    assert main(["precompute", tiny, "--quiet", "--force"]) == 0
+    (line,) = [s for s in capsys.readouterr().out.splitlines() if s.startswith("simple_lens:")]
+    assert "PSFs on serial" in line
+    assert_same_database(SpreadletDatabase.load(line.split()[1]), SpreadletDatabase.load(parallel))

@@ -113,3 +113,41 @@ def test_shard_missing_an_array_counts_as_missing(cache, key):
     del shard[key]
     np.savez(shard_path(folder, 1), **shard)
     assert read_shard(folder, 1) is None
+
+
+@pytest.mark.slow
+def test_a_killed_worker_process_stops_the_job_cleanly_and_it_resumes(tmp_path):
+    """SIGKILL one of `--workers 2`: exit status 2 with one line saying what to do; the rerun
+    finishes from the shards that were kept."""
+    import psutil
+
+    model = small_model(**SLOW)
+    cache = tmp_path / "cache"
+    env = dict(os.environ, SPLATLAB_CACHE=str(cache))
+    folder = cache / "precompute" / f"simple_lens-{content_hash('simple_lens', model.config)}"
+    proc = subprocess.Popen([sys.executable, "-m", "lab.cli", "precompute", "simple_lens",
+                             *cli_sets(SLOW), "--quiet", "--workers", "2"], cwd=ROOT, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 180
+        while not (folder.is_dir() and list(folder.glob("cell*.npz"))):
+            assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+            time.sleep(0.005)
+        workers = [c for c in psutil.Process(proc.pid).children(recursive=True)
+                   if "spawn_main" in " ".join(c.cmdline())]
+        assert len(workers) == 2, [c.cmdline() for c in workers]
+        workers[0].send_signal(signal.SIGKILL)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 2, err
+    assert "a worker process died" in err and "run the command again to resume" in err
+    kept = len(list(folder.glob("cell*.npz")))
+    os.environ["SPLATLAB_CACHE"] = str(cache)
+    try:
+        resumed = precompute(model, progress=False)
+    finally:
+        del os.environ["SPLATLAB_CACHE"]
+    assert resumed.cells == model.grid.size - kept
+    SpreadletDatabase.load(resumed.path, expect_model="simple_lens")

@@ -4,7 +4,9 @@ histogrammed into an R x R PSF image, with pre-filtering over a cell of the PSF 
 A model supplies a per-ray Dr.Jit function ``rays(coords, rng) -> RayHits``: ``coords`` holds one
 Float array per PSF-space dimension (each ray its own PSF coordinate), ``rng`` the ray's PCG32 for
 its remaining random numbers; it returns where each ray lands relative to the PSF centre in image
-pixels (column right, row down), whether it got through (vignetting = inactive), and its channel.
+pixels (column right, row down), whether it got through (vignetting = inactive), its channel and,
+optionally, an integer multiplicity (a ray standing for several equal hits, e.g. a photon that
+crosses the camera sphere of the Volume model more than once).
 
 Pre-filtering: every ray draws its PSF coordinate uniformly from the cell's box, so the PSF
 stored for a cell is the average of all PSFs the runtime maps to that cell (LSR18's box filter).
@@ -31,7 +33,8 @@ from drjit.llvm import Array2f, Bool, Float, Int32, PCG32, UInt32, UInt64
 from lab.errors import UserError
 from lab.llvm_check import problem as llvm_problem
 
-__all__ = ["RayHits", "TraceResult", "trace_psf", "DEFAULT_RAYS_PER_LAUNCH", "MAX_RAYS_PER_LAUNCH"]
+__all__ = ["RayHits", "TraceResult", "trace_psf", "lane_rng", "DEFAULT_RAYS_PER_LAUNCH",
+           "MAX_RAYS_PER_LAUNCH"]
 
 DEFAULT_RAYS_PER_LAUNCH = 2 ** 22  # ~100 MB of per-ray temporaries in a fused kernel: bounded
 MAX_RAYS_PER_LAUNCH = 2 ** 30      # per-launch counts are UInt32; keep far from overflow
@@ -50,11 +53,15 @@ class RayHits:
         False for rays blocked on the way (vignetting); None means all got through.
     channel : UInt32 or None
         Colour channel of each ray, in [0, channels); None for monochrome models.
+    weight : UInt32 or None
+        Integer multiplicity of each active ray's hit (counts add ``weight``, not 1); None means 1.
+        Keep weights small: per-launch bin totals are UInt32.
     """
 
     offset: Array2f
     active: Bool | None = None
     channel: UInt32 | None = None
+    weight: UInt32 | None = None
 
 
 RayFunction = Callable[[list, PCG32], RayHits]
@@ -73,9 +80,10 @@ class TraceResult:
     n_rays : int
         Rays traced.
     n_outside : int
-        Rays that got through the optics but landed outside the R x R image (0 for valid configs).
+        Rays that got through the optics but landed outside the R x R image (0 for valid configs),
+        counted with their weights.
     n_blocked : int
-        Rays blocked inside the optics (vignetting).
+        Rays blocked inside the optics (vignetting), each counted once.
     seconds : float
         Wall time of the launches, synchronised.
     """
@@ -135,14 +143,22 @@ def _check_int(name: str, value, lo: int, hi: int | None = None) -> int:
     return int(value)
 
 
-def _launch(rays: RayFunction, lo, width, resolution: int, channels: int, n: int,
-            state: int, seq: int) -> np.ndarray:
-    """Trace ``n`` rays; return UInt32 counts of length R*R*C + 1 (last bin: outside the image)."""
-    # Hash every lane's state and increment: PCG32(n, s, q) alone seeds lane i with s + i and
-    # q + i, whose first outputs form a lattice across lanes (correlated, not independent rays).
+def lane_rng(n: int, seed: int, stream: int = 0, launch: int = 0) -> PCG32:
+    """``n`` independent PCG32 generators, one per lane, as the tracer seeds them.
+
+    Every lane's state and increment is hashed: PCG32(n, s, q) alone seeds lane i with s + i and
+    q + i, whose first outputs form a lattice across lanes (correlated, not independent rays).
+    ``seed``, ``stream`` (e.g. a cell) and ``launch`` select independent sequences.
+    """
+    state, seq = _launch_seeds(seed, stream, launch)
     lane = dr.arange(UInt64, n)
-    rng = PCG32(n, _splitmix64_dr(lane + dr.opaque(UInt64, state)),
-                _splitmix64_dr(lane + dr.opaque(UInt64, seq)))
+    return PCG32(n, _splitmix64_dr(lane + dr.opaque(UInt64, state)),
+                 _splitmix64_dr(lane + dr.opaque(UInt64, seq)))
+
+
+def _launch(rays: RayFunction, lo, width, resolution: int, channels: int, n: int,
+            rng: PCG32) -> np.ndarray:
+    """Trace ``n`` rays; return UInt32 counts of length R*R*C + 2 (outside, then blocked)."""
     coords = [dr.opaque(Float, a) + dr.opaque(Float, w) * rng.next_float32() for a, w in zip(lo, width)]
     hits = rays(coords, rng)
     c = resolution // 2
@@ -158,11 +174,15 @@ def _launch(rays: RayFunction, lo, width, resolution: int, channels: int, n: int
         index += hits.channel
     outside_bin = dr.opaque(UInt32, resolution * resolution * channels)
     index = dr.select(inside, index, outside_bin)
-    target = dr.zeros(UInt32, resolution * resolution * channels + 1)
-    active = hits.active if hits.active is not None else True
+    target = dr.zeros(UInt32, resolution * resolution * channels + 2)
+    value = UInt32(1)
+    if hits.active is not None:
+        index = dr.select(hits.active, index, outside_bin + 1)
+    if hits.weight is not None:
+        value = hits.weight if hits.active is None else dr.select(hits.active, hits.weight, 1)
     # Expand: per-thread copies of the histogram, so a delta PSF (all rays in one pixel) does
     # not serialise on one atomic.
-    dr.scatter_reduce(dr.ReduceOp.Add, target, UInt32(1), index, active, mode=dr.ReduceMode.Expand)
+    dr.scatter_reduce(dr.ReduceOp.Add, target, value, index, mode=dr.ReduceMode.Expand)
     return target.numpy()
 
 
@@ -208,21 +228,20 @@ def trace_psf(rays: RayFunction, lo: Sequence[float], hi: Sequence[float], resol
         raise UserError(f"PSF box lo = {lo}, hi = {hi}: needs finite bounds with lo <= hi per dimension")
     width = [b - a for a, b in zip(lo, hi)]
 
-    total = np.zeros(resolution * resolution * channels + 1, dtype=np.int64)
+    total = np.zeros(resolution * resolution * channels + 2, dtype=np.int64)
     start = time.perf_counter()
     for launch, first in enumerate(range(0, n_rays, rays_per_launch)):
         n = min(rays_per_launch, n_rays - first)
-        total += _launch(rays, lo, width, resolution, channels, n, *_launch_seeds(seed, stream, launch))
+        total += _launch(rays, lo, width, resolution, channels, n, lane_rng(n, seed, stream, launch))
     dr.sync_thread()
     seconds = time.perf_counter() - start
 
-    counts = total[:-1].reshape(resolution, resolution, channels)
-    n_outside = int(total[-1])
+    counts = total[:-2].reshape(resolution, resolution, channels)
+    n_outside, n_blocked = int(total[-2]), int(total[-1])
     landed = counts.sum(axis=(0, 1))
     if np.any(landed == 0):
         empty = [int(c) for c in np.flatnonzero(landed == 0)]
         raise UserError(f"no ray reached the PSF image in channel(s) {empty} ({n_rays} rays, "
                         f"{n_outside} outside): enlarge the PSF resolution or check the optics")
     psf = (counts / landed.astype(np.float64)).astype(np.float32)
-    n_blocked = n_rays - int(landed.sum()) - n_outside
     return TraceResult(psf, counts, n_rays, n_outside, n_blocked, seconds)

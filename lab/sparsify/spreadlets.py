@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -153,9 +154,19 @@ def _dense(f, n_points, n_dense, extra) -> SparsePSF:
                      crop, (int(cols[0]) - c, int(rows[0]) - c))
 
 
+def _quantum(rays, channels: int) -> np.ndarray:
+    """1 / rays per channel from one count or one count per channel."""
+    if np.ndim(rays) == 0:
+        return np.full(channels, 1.0 / rays)
+    if len(rays) != channels:
+        raise UserError(f"sparsify: rays = {list(rays)} gives {len(rays)} counts for a PSF with {channels} "
+                        "channel(s); give one count, or one per channel")
+    return 1.0 / np.asarray(rays, dtype=np.float64)
+
+
 def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
              dart_failures: int = 10_000, lloyd_iterations: int = 50, anneal_steps: int = 400,
-             anneal_fraction: float = 0.01, rays: int | None = None) -> SparsePSF:
+             anneal_fraction: float = 0.01, rays: int | Sequence[int] | None = None) -> SparsePSF:
     """Turn a dense PSF into spreadlets (LSR18 section 5.5) or keep it dense (section 6.4).
 
     Parameters
@@ -176,16 +187,18 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
         Simulated annealing steps.
     anneal_fraction : float, default 0.01
         Fraction of the points moved per annealing step (at least one).
-    rays : int, optional
+    rays : int or sequence of int, optional
         The PSF is a histogram of this many equal-weight rays (the tracer's count): it is denoised
         first and Laplacian values within the noise get no spreadlets (:mod:`lab.sparsify.noise`).
-        None (default): the PSF is exact.
+        A sequence gives each channel's own count, for RGB tracers whose rays pick a channel and
+        whose channels are normalised separately (the rays landing in each channel,
+        ``TraceResult.counts.sum(axis=(0, 1))``). None (default): the PSF is exact.
 
     Returns
     -------
     SparsePSF
         Spreadlets and statistics, or the dense fast-track PSF. ``stats`` also holds ``rays``
-        (the ray count, 0 if exact), ``denoise_sigma`` (px) and ``ssim_target`` /
+        (the ray count, the smallest channel's if per channel; 0 if exact), ``denoise_sigma`` (px) and ``ssim_target`` /
         ``l1_target``, the similarity to the denoised PSF the spreadlets were fitted to.
 
     Raises
@@ -198,7 +211,7 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
                  rays)
     rng = np.random.default_rng(seed)
     n_dense = dense_count(f_in)
-    quantum = None if rays is None else np.full(f_in.shape[2], 1.0 / rays)
+    quantum = None if rays is None else _quantum(rays, f_in.shape[2])
     f, floor, extra = f_in, None, dict(rays=0.0, denoise_sigma=0.0)
     if quantum is not None:
         dn = denoise(f_in, quantum)

@@ -71,6 +71,9 @@ def check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, a
     if not (isinstance(anneal_fraction, numbers.Real) and not isinstance(anneal_fraction, bool)
             and 0 < anneal_fraction <= 1):
         raise UserError(f"sparsify: anneal_fraction = {anneal_fraction!r} must be in (0, 1]")
-    if rays is not None and not (is_int(rays) and rays >= 1):
-        raise UserError(f"sparsify: rays = {rays!r} must be the tracer's ray count (an integer >= 1) "
-                        "or None for an exact PSF")
+    per_channel = isinstance(rays, (list, tuple, np.ndarray)) and len(rays) >= 1 \
+        and all(is_int(r) and r >= 1 for r in rays)
+    if rays is not None and not (is_int(rays) and rays >= 1) and not per_channel:
+        raise UserError(f"sparsify: rays = {rays!r} must be the tracer's ray count (an integer >= 1, "
+                        "or one per channel for a PSF whose channels are normalised by their own "
+                        "counts) or None for an exact PSF")

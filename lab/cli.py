@@ -95,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                        help="run the cells on this Dask distributed scheduler's workers")
     p.add_argument("--threads", type=int, metavar="T", help="Dr.Jit threads per worker process "
-                   "(default: cores / workers; with --scheduler, cores of the host / its task slots)")
+                   "(default: cores / workers; with --scheduler, a host's cores / its worker processes)")
     p.add_argument("--out", type=Path, help="copy the database here too (it is always cached by content hash)")
     p.add_argument("--atlas", type=Path, metavar="DIR", help="write the PSF atlas (PNG) and LSR18 Table 1 "
                    "(table.md, table.json) of each database to DIR/<model>/")

@@ -19,7 +19,7 @@ from .errors import InputError
 from .filter import GatherFilter
 from .integrate import poisson_integrate
 from .psf_space_cl import check_coords
-from .splat import BandSplatter
+from .splat import RUN_MAX, TileSplatter
 
 METHODS = ("spreadlets", "splat", "filter")
 
@@ -33,15 +33,21 @@ class Renderer:
         The PSF database.
     device : Device, optional
         Default :func:`~runtime_cl.device.get_device`.
-    bands : int, optional
-        Row bands for the splat kernels; default four per compute unit.
+    tile : int or (int, int), optional
+        Tile size of the splat kernels in input pixels; default
+        :func:`runtime_cl.splat.default_tile`.
+    run_max : int
+        Longest run of same-cell pixels the splat kernels splat together (default 32; 1 splats
+        pixel by pixel, as LSR18's one-thread-per-pixel loop). Applies to both splat methods.
     """
 
-    def __init__(self, db: SpreadletDatabase, device: Device | None = None, bands: int | None = None):
+    def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
+                 run_max: int = RUN_MAX):
         self.db = db
         self.device = device or get_device()
         self.ddb = DeviceDatabase(db, self.device)
-        self.bands = bands
+        self.tile = tile
+        self.run_max = run_max
         self._wrappers: dict = {}
 
     def _wrapper(self, method: str, channels: int):
@@ -50,7 +56,8 @@ class Renderer:
             if method == "filter":
                 self._wrappers[key] = GatherFilter(self.ddb, channels)
             else:
-                self._wrappers[key] = BandSplatter(self.ddb, channels, dense_all=method == "splat")
+                self._wrappers[key] = TileSplatter(self.ddb, channels, dense_all=method == "splat",
+                                                   run_max=self.run_max)
         return self._wrappers[key]
 
     def render(self, colour, coords, method: str = "spreadlets") -> tuple:
@@ -74,7 +81,7 @@ class Renderer:
             ``splat_ms``/``merge_ms`` or ``filter_ms``), ``integrate_ms``, ``download_ms``,
             ``compile_ms`` (kernel builds this call needed; 0 once built), ``total_ms`` (wall
             clock of the whole call); counts ``pixels``, ``spreadlets``, ``dense_pixels``
-            (splatted or gathered), ``bands``.
+            (splatted or gathered), ``tiles`` (splat work items; 0 for ``filter``).
         """
         import pyopencl as cl
 
@@ -111,9 +118,9 @@ class Renderer:
         if method == "filter":
             image, kernel_ms, download_ms, psf_px = wrapper.run(colour_buf, coords_buf, h, w)
             t.update(filter_ms=kernel_ms, kernel_ms=kernel_ms, download_ms=download_ms, integrate_ms=0.0,
-                     spreadlets=0, dense_pixels=psf_px, bands=h)
+                     spreadlets=0, dense_pixels=psf_px, tiles=0)
         else:
-            out = wrapper.run(colour_buf, coords_buf, h, w, self.bands)
+            out = wrapper.run(colour_buf, coords_buf, h, w, self.tile)
             p = out.pad
             t0 = time.perf_counter()
             if method == "splat":
@@ -127,6 +134,6 @@ class Renderer:
                     image += out.canvas[1, p:p + h, p:p + w]
             t.update(splat_ms=out.splat_ms, merge_ms=out.merge_ms, kernel_ms=out.splat_ms + out.merge_ms,
                      download_ms=out.download_ms, integrate_ms=(time.perf_counter() - t0) * 1e3,
-                     spreadlets=out.spreadlets, dense_pixels=out.dense_pixels, bands=out.bands)
+                     spreadlets=out.spreadlets, dense_pixels=out.dense_pixels, tiles=out.tiles)
         t["total_ms"] = (time.perf_counter() - start) * 1e3
         return image, t

@@ -1,14 +1,27 @@
-// Exact (race-free, deterministic) splatting with private row bands. Needs psf_space.cl first.
+// Exact (race-free, deterministic) splatting with private tiles. Needs psf_space.cl first.
 //
-// Work item b owns input rows [b*band_rows, (b+1)*band_rows) and a private band buffer that
-// covers the canvas rows those pixels can reach: band_rows + 2*PAD rows of buf_w pixels, with
-// GROUPS planes per pixel (group 0: Laplacian or dense, group 1: fast-track dense). It zeroes
-// its band and adds into it sequentially, so plain += is exact. merge_bands then sums the
-// overlapping bands of each canvas pixel in a fixed order (bit-reproducible results).
+// Work item t owns the input tile [x0, x0 + tile_w) x [y0, y0 + tile_h) and a private buffer
+// covering the canvas pixels those pixels can reach: (tile_h + 2 PAD) rows of (tile_w + 2 PAD)
+// pixels, GROUPS planes (group 0: Laplacian or dense, group 1: fast-track dense). It zeroes its
+// buffer and adds into it sequentially, so plain += is exact. merge_tiles then sums the
+// overlapping tiles of each canvas pixel in a fixed order (bit-reproducible results).
 // Canvas coordinates: input pixel (x, y) sits at (x + PAD, y + PAD).
 //
-// A band pixel is one float (OC = 1) or a float4 whose 4th lane stays 0 (OC = 3): one vector
-// add per spreadlet measured 419 vs 309 M spreadlets/s for three scalar adds on PoCL.
+// Pixels are splat by runs: up to RUN_MAX consecutive non-empty pixels of a tile row with the
+// same PSF cell (common: PSF coordinates vary smoothly over a scene). A spreadlet adds the
+// run's colours times its value to one contiguous segment of a canvas row; a dense PSF row
+// adds to its canvas row for each pixel of the run in turn (same order of terms per output
+// pixel as pixel by pixel, so dense results do not depend on the runs). The device database
+// sorts each cell's spreadlets by (dy, dx), so the segments also advance row by row.
+// Measured on a 2-core PoCL CPU, 1024^2 RGB, discs up to r = 100 with a 1 px soft rim, laid
+// out like a defocused photograph (runtime_cl.bench --layout defocus), vs full-width row bands
+// splatting pixel by pixel: spreadlets 878 -> 2895 M per CPU-second; the demo database (sorted
+// by (dx, dy) in its file) 288 -> 2834. Blocks of several rows per run were 1.8x slower.
+//
+// A tile pixel is one float (OC = 1) or a float4 whose 4th lane stays 0 (OC = 3): one vector
+// add per spreadlet measured 419 vs 309 M spreadlets/s for three scalar adds on PoCL; dropping
+// the 4th lane (3 floats per pixel) measured no faster. Runs are added 4 (spreadlets) or 2
+// (dense rows) pixels per vector op.
 //
 // Build options (beside psf_space.cl's):
 //   CC, DC, OC   colour channels, database channels, output channels = max(CC, DC) (1 or 3)
@@ -16,9 +29,17 @@
 //   DENSE_ALL    1: every pixel splats its dense PSF (LSR18's Splat baseline) into group 0;
 //                0: spreadlets into group 0, fast-tracked cells dense into group 1 (if HAS_FAST)
 //   HAS_FAST     the database has fast-tracked cells (0 saves the second group)
-//   GROUPS       planes groups per band: 1 + (HAS_FAST && !DENSE_ALL)
+//   GROUPS       planes groups per tile: 1 + (HAS_FAST && !DENSE_ALL)
+//   RUN_MAX      longest run of same-cell pixels splat together (default 128)
 
 #define DENSE_GROUP (DENSE_ALL ? 0 : 1)
+#ifndef RUN_MAX
+#define RUN_MAX 128
+#endif
+
+// vectors of 2 and 4 float4 pixels at float4 alignment (vload8/vload16 are calls on PoCL)
+typedef float8 float8_a16 __attribute__((aligned(16)));
+typedef float16 float16_a16 __attribute__((aligned(16)));
 
 #if OC == 1
 typedef float pix_t;
@@ -40,85 +61,153 @@ typedef float4 pix_t;
 #endif
 #endif
 
-inline void splat_dense(__global pix_t *dst, const int buf_w, const pix_t col,
-                        const int r, __global const float *dv) {
-    // dst: band position of the PSF's top-left corner (offset (-r, -r))
+// One dense PSF row (side pixels of values dv) times colour col, added at row[0 .. side).
+inline void dense_row(__global pix_t *row, const pix_t col, const int side, __global const float *dv) {
+    int ox = 0;
+#if OC == 3
+    // two pixels per 8-wide vector op: 1.15x the float4 loop's throughput
+    const float8 c2 = (float8)(col, col);
+    __global float *rowf = (__global float *)row;
+    for (; ox + 1 < side; ox += 2) {
+        const float8 w = (float8)(DB_VALUE(dv, ox), DB_VALUE(dv, ox + 1));
+        *(__global float8_a16 *)(rowf + 4 * ox) += w * c2;
+    }
+#endif
+    for (; ox < side; ++ox) row[ox] += DB_VALUE(dv, ox) * col;
+}
+
+// One spreadlet of value v times the colours of a run of n pixels, added at dst[0 .. n).
+inline void splat_run(__global pix_t *dst, const pix_t v, const pix_t *run_col, const int n) {
+    int k = 0;
+#if OC == 3
+    // four pixels per 16-wide vector op (two AVX ops): 1.3-1.4x the float4 loop's throughput
+    const float16 v4 = (float16)(v, v, v, v);
+    __global float *d = (__global float *)dst;
+    const float *c = (const float *)run_col;
+    for (; k + 3 < n; k += 4) *(__global float16_a16 *)(d + 4 * k) += v4 * *(const float16_a16 *)(c + 4 * k);
+#endif
+    for (; k < n; ++k) dst[k] += v * run_col[k];
+}
+
+// The dense PSF of radius r times the colours of a run of n pixels; dst: the tile position of
+// the first pixel's PSF corner (offset (-r, -r)). Row by row, so a PSF row of the whole run
+// (side + n pixels) stays in L1 while the run's pixels add to it; each row only over its
+// non-zero span [first, end) (a disc's zero corners are ~22 % of its crop).
+inline void splat_dense(__global pix_t *dst, const int buf_w, const pix_t *run_col, const int n,
+                        const int r, __global const float *dv, __global const int2 *span) {
     const int side = 2 * r + 1;
     for (int oy = 0; oy < side; ++oy) {
-        __global pix_t *row = dst + (long)oy * buf_w;
-        const int j0 = oy * side;
-        for (int ox = 0; ox < side; ++ox) row[ox] += DB_VALUE(dv, j0 + ox) * col;
+        const int2 s = span[oy];
+        __global pix_t *row = dst + (long)oy * buf_w + s.x;
+        __global const float *dvrow = dv + ((long)oy * side + s.x) * DC;
+        for (int k = 0; k < n; ++k) dense_row(row + k, run_col[k], s.y - s.x, dvrow);
     }
 }
 
-__kernel void splat_bands(__global const float *colour,      // (H, W, CC)
+__kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                           __global const float *coords,      // (H, W, PSF_NS)
                           __global const PSF_REAL *psf_thr,
                           __global const int *psf_bucket,
                           __global const long *C,            // (n+1,)
-                          __global const short2 *P,          // (m,) (dx, dy)
+                          __global const short2 *P,          // (m,) (dx, dy), sorted (dy, dx) per cell
                           __global const float *V,           // (m, DC)
                           __global const uchar *fast,        // (n,)
                           __global const int *dense_r,       // (n,)
                           __global const long *dense_off,    // (n+1,)
                           __global const float *dense_v,     // (sum, DC)
-                          __global pix_t *bands,             // (nbands, GROUPS, rows, buf_w)
-                          __global long *counts,             // (nbands, 2): spreadlets, dense px
-                          const int H, const int W, const int band_rows, const int buf_w) {
-    const int b = get_global_id(0);
-    const int rows = band_rows + 2 * PAD;
-    const long group_stride = (long)rows * buf_w;
-    __global pix_t *band = bands + (long)b * GROUPS * group_stride;
-    for (long i = 0; i < GROUPS * group_stride; ++i) band[i] = (pix_t)0.0f;
+                          __global const long *span_off,     // (n+1,)
+                          __global const int2 *span,         // (rows,) non-zero [first, end) per row
+                          __global const long *dense_n,      // (n,) pixels inside the spans
+                          __global pix_t *tiles,             // (ntiles, GROUPS, buf_h, buf_w)
+                          __global long *counts,             // (ntiles, 2): spreadlets, dense px
+                          const int H, const int W, const int tile_w, const int tile_h,
+                          const int tiles_x) {
+    const int t = get_global_id(0);
+    const int x0 = (t % tiles_x) * tile_w, y0 = (t / tiles_x) * tile_h;
+    const int x1 = min(x0 + tile_w, W), y1 = min(y0 + tile_h, H);
+    const int buf_w = tile_w + 2 * PAD;
+    const long group_stride = (long)(tile_h + 2 * PAD) * buf_w;
+    __global pix_t *tile = tiles + (long)t * GROUPS * group_stride;
+    for (long i = 0; i < GROUPS * group_stride; ++i) tile[i] = (pix_t)0.0f;
 
-    const int y0 = b * band_rows;
-    const int y1 = min(y0 + band_rows, H);
     long n_spreadlets = 0, n_dense = 0;
+    pix_t run_col[RUN_MAX];
     for (int y = y0; y < y1; ++y) {
-        for (int x = 0; x < W; ++x) {
+        int x = x0, next_cell = -1;  // next_cell: pixel x's cell when the last run looked it up
+        while (x < x1) {
             const long i = (long)y * W + x;
             const pix_t col = COLOUR(colour, i);
-            if (IS_ZERO(col)) continue;  // empty pixels splat nothing (LSR18: culled early)
-            const int cell = psf_cell(coords + i * PSF_NS, psf_thr, psf_bucket);
-            const long centre = (long)(y - y0 + PAD) * buf_w + (x + PAD);
+            if (IS_ZERO(col)) {  // empty pixels splat nothing (LSR18: culled early)
+                ++x;
+                next_cell = -1;
+                continue;
+            }
+            const int cell = next_cell >= 0 ? next_cell : psf_cell(coords + i * PSF_NS, psf_thr, psf_bucket);
+            next_cell = -1;
+            // the run: pixels x .. x + n - 1, all non-empty with this cell
+            run_col[0] = col;
+            int n = 1;
+            while (n < RUN_MAX && x + n < x1) {
+                const pix_t c = COLOUR(colour, i + n);
+                if (IS_ZERO(c)) break;
+                const int cn = psf_cell(coords + (i + n) * PSF_NS, psf_thr, psf_bucket);
+                if (cn != cell) {
+                    next_cell = cn;
+                    break;
+                }
+                run_col[n++] = c;
+            }
+            const long centre = (long)(y - y0 + PAD) * buf_w + (x - x0 + PAD);
+            x += n;
 #if DENSE_ALL || HAS_FAST
             if (DENSE_ALL || fast[cell]) {
                 const int r = dense_r[cell];
-                splat_dense(band + DENSE_GROUP * group_stride + centre - ((long)r * buf_w + r),
-                            buf_w, col, r, dense_v + dense_off[cell] * DC);
-                n_dense += (long)(2 * r + 1) * (2 * r + 1);
+                splat_dense(tile + DENSE_GROUP * group_stride + centre - ((long)r * buf_w + r),
+                            buf_w, run_col, n, r, dense_v + dense_off[cell] * DC, span + span_off[cell]);
+                n_dense += dense_n[cell] * n;
                 continue;
             }
 #endif
-            __global pix_t *lap = band + centre;
-            const long j1 = C[cell + 1];
-            n_spreadlets += j1 - C[cell];
-            for (long j = C[cell]; j < j1; ++j) {
+            __global pix_t *lap = tile + centre;
+            const long j0 = C[cell], j1 = C[cell + 1];
+            n_spreadlets += (j1 - j0) * n;
+            for (long j = j0; j < j1; ++j) {
                 const short2 p = P[j];
-                lap[(long)p.y * buf_w + p.x] += DB_VALUE(V, j) * col;
+                splat_run(lap + (long)p.y * buf_w + p.x, DB_VALUE(V, j), run_col, n);
             }
         }
     }
-    counts[2 * b] = n_spreadlets;
-    counts[2 * b + 1] = n_dense;
+    counts[2 * t] = n_spreadlets;
+    counts[2 * t + 1] = n_dense;
 }
 
-// canvas (GROUPS, canvas_h, buf_w, OC): each canvas row is the sum of the band rows covering
-// it, bands in increasing order. One work item per canvas row; the fixed local size (1)
-// spares PoCL a re-compile per image size.
-__kernel void merge_bands(__global const pix_t *bands, __global float *canvas,
-                          const int nbands, const int band_rows, const int buf_w, const int canvas_h) {
+// First tile index k whose span [k step, k step + size) contains c, for 0 <= c (spans of
+// consecutive tiles overlap when size > step).
+inline int first_tile(const int c, const int step, const int size) {
+    return c < size ? 0 : (c - size) / step + 1;
+}
+
+// canvas (GROUPS, canvas_h, canvas_w, OC): each canvas pixel is the sum of the tile pixels
+// covering it, tiles in increasing index order. One work item per canvas row; the fixed local
+// size (1) spares PoCL a re-compile per image size.
+__kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
+                          const int tiles_x, const int tiles_y, const int tile_w, const int tile_h,
+                          const int canvas_w, const int canvas_h) {
     const int cy = get_global_id(0);
     if (cy >= canvas_h) return;
-    const int rows = band_rows + 2 * PAD;
-    const int b_hi = min(cy / band_rows, nbands - 1);
-    const int b_lo = cy < rows ? 0 : (cy - rows) / band_rows + 1;  // first b with b*band_rows + rows > cy
+    const int buf_w = tile_w + 2 * PAD, buf_h = tile_h + 2 * PAD;
+    const int ty_lo = first_tile(cy, tile_h, buf_h), ty_hi = min(cy / tile_h, tiles_y - 1);
     for (int g = 0; g < GROUPS; ++g) {
-        __global float *dst = canvas + ((long)g * canvas_h + cy) * buf_w * OC;
-        for (int x = 0; x < buf_w; ++x) {
+        __global float *dst = canvas + ((long)g * canvas_h + cy) * canvas_w * OC;
+        for (int x = 0; x < canvas_w; ++x) {
+            const int tx_lo = first_tile(x, tile_w, buf_w), tx_hi = min(x / tile_w, tiles_x - 1);
             pix_t acc = (pix_t)0.0f;
-            for (int b = b_lo; b <= b_hi; ++b)
-                acc += bands[(((long)b * GROUPS + g) * rows + (cy - b * band_rows)) * buf_w + x];
+            for (int ty = ty_lo; ty <= ty_hi; ++ty) {
+                for (int tx = tx_lo; tx <= tx_hi; ++tx) {
+                    const long t = (long)ty * tiles_x + tx;
+                    acc += tiles[((t * GROUPS + g) * buf_h + (cy - ty * tile_h)) * buf_w + (x - tx * tile_w)];
+                }
+            }
 #if OC == 1
             dst[x] = acc;
 #else

@@ -4,6 +4,7 @@ import pytest
 from cl_reference import random_database
 
 from runtime_cl.errors import InputError
+from runtime_cl.integrate import laplacian5
 from runtime_cl.psf_coords import psf_coords, thin_lens_coords
 from runtime_cl.render import Renderer
 from runtime_cl.synthetic import disc_database, disc_psf
@@ -105,3 +106,18 @@ def test_thin_lens_coords_need_a_simple_lens_database():
         psf_coords(camera, np.ones((2, 2)), db)
     with pytest.raises(InputError, match="need a 'simple_lens' database"):
         thin_lens_coords(camera, np.ones((2, 2)), db)
+
+
+@pytest.mark.parametrize("edge", [1.0, 2.5])
+def test_soft_rim_disc_database_is_exact(edge):
+    p = disc_psf(6.0, edge=edge)
+    assert p.shape == (2 * int(np.ceil(6.0 + edge / 2)) + 1,) * 2 and np.isclose(p.sum(), 1.0)
+    assert np.count_nonzero(laplacian5(np.pad(p, 1))) > np.count_nonzero(laplacian5(np.pad(disc_psf(6.0), 1)))
+    db = disc_database(8.0, samples=10, edge=edge)
+    rng = np.random.default_rng(4)
+    colour = rng.random((18, 22, 3)).astype(np.float32)
+    coords = (rng.random((18, 22, 1)) * 8).astype(np.float32)
+    renderer = Renderer(db)
+    ours, _ = renderer.render(colour, coords, "spreadlets")
+    splat, _ = renderer.render(colour, coords, "splat")
+    np.testing.assert_allclose(ours, splat, atol=1e-5 * splat.max())

@@ -28,8 +28,9 @@ def test_spreadlet_throughput_at_1024():
 @pytest.mark.slow
 def test_spreadlets_beat_splat_tenfold_on_a_defocused_scene():
     # LSR18 Table 2 style: 1024^2, background CoC radii of 55-90 px, discs with a soft rim
-    # (r = 80: 1884 spreadlets, 26 569 dense pixels). Measured under load: kernels 15.9x,
-    # whole methods 11.5x (the FFT integration is ~27 % of the spreadlet method).
+    # (r = 80: 1884 spreadlets, ~20 600 non-zero dense pixels). Measured with the 2-core machine
+    # shared by several busy processes: kernels 11.2-12.7x, whole methods 8.1-10.1x (the FFT
+    # integration is 20-27 % of the spreadlet method's time).
     out = run(1024, 1024, spreadlets=None, r_max=100.0, layout="defocus", samples=64, edge=1.0,
               methods=("spreadlets", "splat"), repeats=2)
     r = out["ratios"]

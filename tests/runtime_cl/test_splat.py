@@ -280,3 +280,15 @@ def test_dense_splats_skip_the_zero_part_of_each_row():
     _, dense_ref = spreadlet_canvases(db, colour, coords, canvas_shape(19, 23, db.pad))
     close(out.canvas[1], dense_ref)  # fast-tracked cells: trimmed dense splats
     assert out.dense_pixels == pixels[cell[db.fast_track[cell]]].sum()
+
+
+def test_bad_tile_or_run_length_is_an_input_error():
+    from runtime_cl.errors import InputError
+
+    rng = np.random.default_rng(24)
+    db = random_database(rng)
+    colour, coords = scene(rng, db, 6, 7, 3)
+    with pytest.raises(InputError, match=r"tile = \(0, 4\): need a size >= 1"):
+        Renderer(db, tile=(0, 4)).render(colour, coords, "splat")
+    with pytest.raises(InputError, match=r"run_max = 0: must be an integer in \[1, 256\]"):
+        Renderer(db, run_max=0).render(colour, coords, "spreadlets")

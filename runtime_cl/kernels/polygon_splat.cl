@@ -1,0 +1,310 @@
+// MHU21 polygonal splatting in exact fixed point (runtime_cl/polygon_splat.py).
+//
+// Every value is an integer count of 2^-e colour units, held in ulong: additions wrap modulo
+// 2^64, so sums are exact and independent of order whatever the intermediate values, and the
+// final pixel is right because its true value is known to fit in a long (the host picks e).
+//
+// Canvas: buffer k (direction d_k = (a, b), a >= 1) covers exactly the image, H x W x NC.
+// Terms landing outside are folded on (`emit`) so nothing the image needs is lost:
+//   * x < 0: slide along +d to the first column >= 0 (the skipped points are left of the image);
+//   * y >= H (only b < 0 lines climb back): slide along +d to the first row < H;
+//   * y < 0: the line's points above the image feed the vertical sum of every column they pass
+//     through, i.e. a comb of stride a on row 0 (`comb` buffer a-1), +v from x until the line
+//     enters row 0 (where it continues in buffer k) and -v from there;
+//   * x >= W, or y >= H with b >= 0: never reach the image, dropped.
+// Likewise a line with b < 0 that leaves the image upwards carries its running sum on as a comb
+// (`comb_exit`); terms further along it, above the image, were folded into combs already.
+// The uniform path (`quantise`, `prefix_local` with gather) pads its region by the kernel instead.
+//
+// -D constants: NC (channels), NDIR (directions), AMAX (largest a), BMAX (largest |b|), CB
+// (columns per summing work item), CHUNK (prefix-sum chunk width), BUCKETS (radius lookup
+// buckets per pixel).
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
+
+inline int floor_div(int a, int b) { int q = a / b; return (q * b != a && ((a < 0) != (b < 0))) ? q - 1 : q; }
+inline int ceil_div(int a, int b) { return -floor_div(-a, b); }
+
+inline void add_comb(__global ulong *comb, int a, int x, int W, const ulong *v, int sign) {
+    volatile __global ulong *p = (volatile __global ulong *)(comb + ((size_t)(a - 1) * W + x) * NC);
+    for (int c = 0; c < NC; ++c) atom_add(p + c, sign > 0 ? v[c] : (ulong)0 - v[c]);
+}
+
+// Adds the term v at (x, y) of direction (a, b) to buffer `buf` (H x W x NC), folded. Plain
+// (non-atomic) adds are safe for unfolded targets off the border zone (the host runs tiles that
+// could touch the same pixel in different launches); folded terms and the border zone
+// (x < AMAX, y < BMAX, y >= H - BMAX), where folded terms land, use atomics.
+inline void emit(__global ulong *buf, __global ulong *comb, int a, int b, int x, int y,
+                 int W, int H, const ulong *v) {
+    if (x >= W) return;
+    int folded = 0;
+    if (x < 0) { const int k = ceil_div(-x, a); x += k * a; y += k * b; folded = 1; if (x >= W) return; }
+    if (y >= H) {
+        if (b >= 0) return;
+        const int k = ceil_div(y - (H - 1), -b);
+        x += k * a; y += k * b;
+        folded = 1;
+        if (x >= W) return;
+    }
+    if (y < 0) {
+        add_comb(comb, a, x, W, v, 1);
+        if (b <= 0) return;
+        const int k = ceil_div(-y, b);
+        x += k * a; y += k * b;
+        if (x >= W) return;
+        add_comb(comb, a, x, W, v, -1);
+        if (y >= H) return;
+        folded = 1;
+    }
+    __global ulong *p = buf + ((size_t)y * W + x) * NC;
+    if (folded || x < AMAX || y < BMAX || y >= H - BMAX) {
+        for (int c = 0; c < NC; ++c) atom_add((volatile __global ulong *)(p + c), v[c]);
+    } else {
+        for (int c = 0; c < NC; ++c) p[c] += v[c];
+    }
+}
+
+// Entry of radius r: breaks[e] <= r < breaks[e + 1]. `bucket[i]` is the entry of radius
+// i / BUCKETS, so a few steps forward from it find the entry.
+inline int find_entry(__global const float *breaks, int n, __global const int *bucket, float r) {
+    int e = bucket[(int)(r * BUCKETS)];
+    while (e + 1 < n && breaks[e + 1] <= r) ++e;
+    return e;
+}
+
+// Spatially varying radius: each work item splats one TILE x TILE tile of pixels. One launch
+// runs the tiles (cx + i P, cy + j P): their kernels (at most SPAN pixels wide or high, the
+// host's P) cannot overlap, so plain adds do not race.
+// q = rint(colour * unit[entry, c]) with unit = 2^e / area (one double product per channel).
+__kernel void splat(__global const float *image,          // H x W x NC
+                    __global const float *radius,         // H x W
+                    const int W, const int H,
+                    __global const float *breaks, const int n_entries, __global const int *bucket,
+                    __global const int *term_start,       // n_entries + 1
+                    __global const int4 *terms,           // (direction, dx, dy, value)
+                    __global const double *unit,          // n_entries x NC
+                    __global const int2 *dirs,            // NDIR
+                    __global ulong *bufs,                 // NDIR x H x W x NC
+                    __global ulong *comb,                 // AMAX x W x NC
+                    const int TILE, const int P, const int cx, const int cy, const int n_tx)
+{
+    const int i = get_global_id(0);
+    const int tx = cx + (i % n_tx) * P, ty = cy + (i / n_tx) * P;
+    const int x0 = tx * TILE, y0 = ty * TILE;
+    if (x0 >= W || y0 >= H) return;
+    float last_r = -1.0f;
+    int e = 0;
+    for (int y = y0; y < min(y0 + TILE, H); ++y)
+    for (int x = x0; x < min(x0 + TILE, W); ++x) {
+        const size_t p = (size_t)y * W + x;
+        const float r = radius[p];
+        if (r != last_r) { e = find_entry(breaks, n_entries, bucket, r); last_r = r; }
+        ulong q[NC];
+        int any = 0;
+        for (int c = 0; c < NC; ++c) {
+            const long v = convert_long_rte((double)image[p * NC + c] * unit[e * NC + c]);
+            q[c] = (ulong)v;
+            any |= v != 0;
+        }
+        if (!any) continue;
+        for (int t = term_start[e]; t < term_start[e + 1]; ++t) {
+            const int4 tm = terms[t];
+            const int2 d = dirs[tm.x];
+            ulong v[NC];
+            for (int c = 0; c < NC; ++c) v[c] = q[c] * (ulong)(long)tm.w;
+            emit(bufs + (size_t)tm.x * H * W * NC, comb, d.x, d.y, x + tm.y, y + tm.z, W, H, v);
+        }
+    }
+}
+
+// Directional prefix sum (MHU21 eq. 10) along d = (a, b) in column chunks, so every pass
+// streams whole row segments. A region of BW x BH pixels (buffer `buf`, row-major, NC per
+// pixel) is cut into chunks of CHUNK columns (a multiple of every a and of CB).
+// prefix_local: within its chunk each work item computes S1(x, y) = S1(x - a, y - b) + G(x, y),
+// starting from 0 where the line enters the chunk (rows in the order b asks for). G is the
+// buffer itself (radius map: the splatted terms), or for a uniform radius (`gather`) the sum
+// sum_t value_t q(p - offset_t) over the fixed-point image `q` (see `quantise`), whose pixel
+// (x, y) holds region pixel (x - DXMAX, y - DYMAX).
+// prefix_carry: carry[c][u][y] = the full prefix just before the line through (x0_c + u, y)
+// enters chunk c, i.e. S(x0_c + u - a, y - b), = S1 there + carry[c-1][u][y - b CHUNK / a].
+// Carry rows run from -CPAD to BH + CPAD (zeros outside the region) so readers need no checks.
+// The full prefix is S(x, y) = S1(x, y) + carry[c][(x - x0) % a][y - b ((x - x0) / a)];
+// `vsum` adds it on the fly.
+#define CPAD (BMAX * (CHUNK / 1))
+#define CROWS(BH) ((BH) + 2 * CPAD)
+
+inline void add_scaled(ulong *acc, __global const int *src, const int n, const int w) {
+    // values are +-1 or +-2 in practice: adds and shifts vectorise, 64-bit products do not
+    if (w == 1) for (int j = 0; j < n; ++j) acc[j] += (ulong)(long)src[j];
+    else if (w == -1) for (int j = 0; j < n; ++j) acc[j] -= (ulong)(long)src[j];
+    else if (w == 2) for (int j = 0; j < n; ++j) acc[j] += (ulong)(long)src[j] << 1;
+    else if (w == -2) for (int j = 0; j < n; ++j) acc[j] -= (ulong)(long)src[j] << 1;
+    else for (int j = 0; j < n; ++j) acc[j] += (ulong)((long)src[j] * w);
+}
+
+__kernel void prefix_local(__global ulong *buf, const long base, const int BW, const int BH,
+                           const int a, const int b,
+                           __global const int *q, const int QW, const int DXMAX, const int DYMAX,
+                           __global const int4 *terms, const int term_first, const int n_terms,
+                           const int gather)
+{
+    const int x0 = get_global_id(0) * CHUNK;
+    if (x0 >= BW) return;
+    const int n = (min(x0 + CHUNK, BW) - x0) * NC, an = a * NC;
+    ulong acc[CHUNK * NC];
+    buf += base;
+    for (int i = 0; i < BH; ++i) {
+        const int y = b >= 0 ? i : BH - 1 - i;
+        __global ulong *row = buf + ((size_t)y * BW + x0) * NC;
+        if (gather) {
+            for (int j = 0; j < n; ++j) acc[j] = 0;
+            for (int s = 0; s < n_terms; ++s) {
+                const int4 tm = terms[term_first + s];
+                add_scaled(acc, q + ((size_t)(y - tm.z + DYMAX) * QW + (x0 - tm.y + DXMAX)) * NC, n, tm.w);
+            }
+        } else {
+            for (int j = 0; j < n; ++j) acc[j] = row[j];
+        }
+        const int yp = y - b;
+        if (b == 0) {
+            for (int j = an; j < n; ++j) acc[j] += acc[j - an];
+        } else if (yp >= 0 && yp < BH) {
+            __global const ulong *prev = buf + ((size_t)yp * BW + x0) * NC;
+            for (int j = an; j < n; ++j) acc[j] += prev[j - an];
+        }
+        for (int j = 0; j < n; ++j) row[j] = acc[j];
+    }
+}
+
+// The fixed-point image for the uniform path: q = rint(colour * 2^e) in int32 (an exact float
+// scaling; e keeps |q| < 2^31), zero outside the image; q pixel (x, y) is image pixel
+// (x - QX, y - QY). One row per work item.
+__kernel void quantise(__global const float *image, const int W, const int H,
+                       __constant float *scale, __global int *q, const int QW, const int QX,
+                       const int QY)
+{
+    const int y = get_global_id(0), iy = y - QY;
+    __global int *row = q + (size_t)y * QW * NC;
+    const int inside_row = iy >= 0 && iy < H;
+    for (int x = 0; x < QW; ++x) {
+        const int ix = x - QX;
+        const int inside = inside_row && ix >= 0 && ix < W;
+        for (int c = 0; c < NC; ++c)
+            row[x * NC + c] = inside ? (int)rint(image[((size_t)iy * W + ix) * NC + c] * scale[c]) : 0;
+    }
+}
+
+// One work item: the carries of every chunk (sequential over chunks; a x CROWS x NC per chunk).
+__kernel void prefix_carry(__global const ulong *buf, const long base, const int BW, const int BH,
+                           const int a, const int b, __global ulong *carry, const long carry_base)
+{
+    if (get_global_id(0) != 0) return;
+    buf += base;
+    carry += carry_base;
+    const int n_chunks = (BW + CHUNK - 1) / CHUNK, shift = b * (CHUNK / a), rows = CROWS(BH);
+    for (long i = 0; i < (long)n_chunks * a * rows * NC; ++i) carry[i] = 0;
+    for (int ch = 1; ch < n_chunks; ++ch) {
+        __global ulong *cur = carry + (size_t)ch * a * rows * NC;
+        __global const ulong *prv = cur - (size_t)a * rows * NC;
+        for (int u = 0; u < a; ++u)
+            for (int y = 0; y < BH; ++y) {
+                const int yp = y - b, yc = y - shift;
+                if (yp < 0 || yp >= BH) continue;
+                const int x = ch * CHUNK + u - a;
+                for (int c = 0; c < NC; ++c) {
+                    ulong v = buf[((size_t)yp * BW + x) * NC + c];
+                    if (yc >= 0 && yc < BH) v += prv[((size_t)u * rows + yc + CPAD) * NC + c];
+                    cur[((size_t)u * rows + y + CPAD) * NC + c] = v;
+                }
+            }
+    }
+}
+
+inline ulong full_prefix(__global const ulong *buf, __global const ulong *carry, int BW, int BH,
+                         int a, int b, int x, int y, int c) {
+    const int ch = x / CHUNK, off = x - ch * CHUNK, u = off % a, yc = y - b * (off / a);
+    return buf[((size_t)y * BW + x) * NC + c]
+         + carry[(((size_t)ch * a + u) * CROWS(BH) + yc + CPAD) * NC + c];
+}
+
+// A line with b < 0 that leaves the region upwards carries its prefix on as a comb of stride a
+// (radius-map path; see `emit`). One work item per column.
+__kernel void comb_exit(__global const ulong *buf, const long base, const int W, const int H,
+                        const int a, const int b, __global const ulong *carry, const long carry_base,
+                        __global ulong *comb)
+{
+    const int x = get_global_id(0);
+    if (x >= W || x + a >= W) return;
+    ulong s[NC];
+    for (int c = 0; c < NC; ++c) s[c] = 0;
+    for (int y = 0; y < min(-b, H); ++y)
+        for (int c = 0; c < NC; ++c) s[c] += full_prefix(buf + base, carry + carry_base, W, H, a, b, x, y, c);
+    for (int c = 0; c < NC; ++c) comb[((size_t)(a - 1) * W + x + a) * NC + c] += s[c];
+}
+
+// In-place prefix sum of each comb with stride a (one work item per (a, u, channel)).
+__kernel void comb_prefix(__global ulong *comb, const int W)
+{
+    int id = get_global_id(0);
+    const int c = id % NC;
+    id /= NC;
+    int a = 1;
+    while (id >= a) { id -= a; ++a; }          // id -> (a, u) with u < a
+    if (a > AMAX) return;
+    __global ulong *row = comb + (size_t)(a - 1) * W * NC;
+    ulong s = 0;
+    for (int x = id; x < W; x += a) { s += row[x * NC + c]; row[x * NC + c] = s; }
+}
+
+// Vertical prefix sum (MHU21 eq. 11) of the sum over directions (eq. 9) of the full directional
+// prefixes, plus the combs on row 0, converted to colour: out = value * factor (2^-e, and
+// 1 / area for a uniform radius). Image pixel (x, y) is region pixel (x + XO, y + TOP); rows
+// above the image (TOP of them) only feed the sum. CB columns per work item; with `fixed` != 0
+// the int64 sums are written instead (tests compare them bit for bit).
+__kernel void vsum(__global const ulong *bufs, __global const int2 *dirs, const int BW, const int BH,
+                   const int XO, const int TOP, const int W, const int H,
+                   __global const ulong *carry, __global const ulong *comb, const int n_comb,
+                   __constant double *factor, __global float *out, __global long *fixed_out,
+                   const int fixed)
+{
+    const int x0 = get_global_id(0) * CB;
+    if (x0 >= W) return;
+    const int n = min(CB, W - x0);
+    const size_t plane = (size_t)BW * BH * NC;
+    const size_t cplane = (size_t)((BW + CHUNK - 1) / CHUNK) * AMAX * CROWS(BH) * NC;
+    ulong s[CB * NC];
+    long cbase[NDIR * CB];   // carry index of (column, row 0)
+    for (int i = 0; i < CB; ++i) {
+        const int x = min(x0 + i, W - 1) + XO, ch = x / CHUNK, off = x - ch * CHUNK;
+        for (int k = 0; k < NDIR; ++k) {
+            const int2 d = dirs[k];
+            cbase[k * CB + i] = (long)k * cplane
+                + (((long)ch * d.x + off % d.x) * CROWS(BH) + CPAD - d.y * (off / d.x)) * NC;
+        }
+        for (int c = 0; c < NC; ++c) {
+            ulong v = 0;
+            if (i < n)
+                for (int a = 0; a < n_comb; ++a) v += comb[((size_t)a * W + x0 + i) * NC + c];
+            s[i * NC + c] = v;
+        }
+    }
+    for (int y = 0; y < TOP + H; ++y) {
+        for (int k = 0; k < NDIR; ++k) {
+            __global const ulong *row = bufs + k * plane + ((size_t)y * BW + x0 + XO) * NC;
+            for (int i = 0; i < n * NC; ++i) s[i] += row[i];
+            for (int i = 0; i < n; ++i) {
+                __global const ulong *cr = carry + cbase[k * CB + i] + (long)y * NC;
+                for (int c = 0; c < NC; ++c) s[i * NC + c] += cr[c];
+            }
+        }
+        if (y < TOP) continue;
+        const size_t o = ((size_t)(y - TOP) * W + x0) * NC;
+        if (fixed) {
+            for (int i = 0; i < n * NC; ++i) fixed_out[o + i] = (long)s[i];
+        } else {
+            for (int i = 0; i < n; ++i)
+                for (int c = 0; c < NC; ++c)
+                    out[o + i * NC + c] = (float)((double)(long)s[i * NC + c] * factor[c]);
+        }
+    }
+}

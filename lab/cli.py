@@ -16,6 +16,7 @@ typical use:
   splatlab plan scenes/demo.toml                 what a scene calls for, what runs, what is skipped
   splatlab report scenes/demo.toml               precompute + reference + runtime + SSIM/timing report
   splatlab render in.exr --db simple_lens.spdb --method spreadlets --out out.exr
+  splatlab render in.exr --method polygon --aperture hexagon --out out.exr   exact polygonal bokeh
   splatlab bench runtime                         method timings and kernel throughput -> reports/bench/
   splatlab doctor                                what is installed, what is missing and how to fix it
 
@@ -54,7 +55,9 @@ DESCRIPTIONS = {
     "reference": "Render the Mitsuba 3 path-traced reference (through the scene's thin lens) and the "
                  "pinhole labelled-pixel input EXR (R, G, B, A, Z and the splatlab.camera header).",
     "render": "Render a labelled-pixel EXR (from `splatlab reference` or any renderer that writes R, G, B, "
-              "A, Z and a splatlab.camera header) with a spreadlet database on the OpenCL device.",
+              "A, Z and a splatlab.camera header) with a spreadlet database on the OpenCL device, or "
+              "with --method polygon exactly with a flat polygonal aperture (MHU21; no database): each "
+              "pixel spreads over the rasterised polygon at its |CoC| from Z and the thin-lens header.",
     "report": "The whole job for one scene: plan, labelled-pixel input and Mitsuba reference, PSF "
               "databases, every runtime method, then SSIM/PSNR against the reference and timings in "
               "reports/<scene>/index.html and report.json. Every stage is cached by content hash.",
@@ -109,10 +112,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("render", description=DESCRIPTIONS["render"], help="render a labelled-pixel EXR with a spreadlet database")
     p.add_argument("input", type=Path, help="labelled-pixel EXR: R,G,B,A,Z and the splatlab.camera header")
-    p.add_argument("--db", type=Path, required=True, help="spreadlet database (splatlab precompute)")
-    p.add_argument("--method", choices=("spreadlets", "splat", "filter"), default="spreadlets",
+    p.add_argument("--db", type=Path, help="spreadlet database (splatlab precompute); needed by every "
+                   "method but polygon")
+    p.add_argument("--method", choices=("spreadlets", "splat", "filter", "polygon"), default="spreadlets",
                    help="spreadlets: LSR18 Laplacian splatting; splat: dense PSF splatting; "
-                        "filter: gathering with the PSF (default: spreadlets)")
+                        "filter: gathering with the PSF; polygon: exact flat polygonal bokeh (MHU21) "
+                        "(default: spreadlets)")
+    p.add_argument("--aperture", default="hexagon", metavar="NAME",
+                   help="polygon: built-in shape (hexagon, octagon, dodecagon, hexadecagon, heart, "
+                        "clover, star; default hexagon)")
+    p.add_argument("--directions", type=int, default=2, metavar="M",
+                   help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
+    p.add_argument("--edges", type=int, metavar="N",
+                   help="polygon: most edges of the rectified aperture (default: its corners, <= 16)")
     p.add_argument("--out", type=Path, required=True, help="output EXR (R, G, B)")
     p.add_argument("--camera", type=Path, help="camera TOML ([camera] table) overriding the EXR header")
 
@@ -124,11 +136,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")
 
     p = sub.add_parser("bench", description=DESCRIPTIONS["bench"], help="benchmarks; JSON under reports/bench/")
-    p.add_argument("what", choices=("runtime", "precompute", "all"),
+    p.add_argument("what", choices=("runtime", "precompute", "polygon", "all"),
                    help="runtime: spreadlets vs Splat vs Filter and kernel throughput at 1024^2 on the "
                         "demo scene; precompute: M rays/s per PSF model, and (unless --no-build) the "
                         "wall time to build each model's database at default settings, LSR18 Table 1 "
-                        "and a PSF atlas per model")
+                        "and a PSF atlas per model; polygon: MHU21 exact polygonal bokeh (time vs "
+                        "radius, against brute force / Laplacian / dx dy, uniform blur vs FFT; "
+                        "not part of all)")
+    p.add_argument("--quick", action="store_true",
+                   help="polygon: small sizes only (a smoke run in seconds)")
     p.add_argument("--scene", type=Path, default=DEMO_SCENE, help="scene to benchmark (default: demo)")
     p.add_argument("--repeats", type=int, default=5, help="timed repetitions after warm-up (default 5)")
     p.add_argument("--models", metavar="NAME[,NAME...]",

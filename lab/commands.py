@@ -93,7 +93,27 @@ def cmd_reference(args) -> int:
     return 0
 
 
+def _render_polygon(args) -> int:
+    from .exr_io import write_rgb
+    from .pipeline import read_input
+    from .polygon_aperture import polygon_aperture, render_polygon
+
+    image = read_input(args.input, args.camera)
+    aperture = polygon_aperture(args.aperture, args.directions, args.edges)
+    rendered, info = render_polygon(image, aperture)
+    write_rgb(args.out, rendered)
+    print(f"{args.out}: polygon ({aperture.name}, {aperture.edges} edges, D m={aperture.directions_m}), "
+          f"radius <= {info['max_radius_px']:.1f} px, {info['kernel_ms']:.1f} ms kernels "
+          f"(+{info['table_s']:.2f} s radius table, {info['rectify_s']:.2f} s rectification)")
+    return 0
+
+
 def cmd_render(args) -> int:
+    if args.method == "polygon":
+        return _render_polygon(args)
+    if args.db is None:
+        raise UserError(f"--db: --method {args.method} needs a spreadlet database (splatlab precompute "
+                        "MODEL --out FILE); only --method polygon works without one")
     from runtime_cl.database import SpreadletDatabase
     from runtime_cl.psf_coords import psf_coords
     from runtime_cl.render import Renderer
@@ -138,6 +158,11 @@ def cmd_demo(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.what == "polygon":
+        from .bench_polygon import bench_polygon
+
+        print(f"benchmark: {bench_polygon(args.repeats, quick=args.quick)}")
+        return 0
     from .bench import run_bench
 
     for path in run_bench(args.what, args.scene, args.repeats, models=args.models,

@@ -8,25 +8,28 @@ per pixel (depth of field: ``|CoC|`` from :mod:`runtime_cl.thin_lens`). Pixel ``
 
 Pipeline (``kernels/polygon_splat.cl``)
 ---------------------------------------
-1. Radius -> polygon: :class:`~runtime_cl.polygon_scale.ScaleTable` (binary search per pixel).
-   Each entry holds the polygon's directional differences (:mod:`runtime_cl.polygon_terms`, a
-   constant number whatever the radius: 16 for the built-in hexagon, 12 for the octagon) and
+1. Radius -> polygon: :class:`~runtime_cl.polygon_radii.RadiusTable` (exactly
+   ``scale_polygon``'s polygon for every float32 radius, see :mod:`runtime_cl.polygon_scale`;
+   a bucket index finds a pixel's entry in a step or two). Each entry holds the polygon's
+   directional differences (:mod:`runtime_cl.polygon_terms`; a constant number whatever the
+   radius: 16 for the built-in hexagon, 12 for the octagon, 8 for MHU21's 45-degree hexagon) and
    its pixel count, exact by Pick's theorem.
-2. Splat the terms into one buffer per edge direction (eq. 9): atomically for a radius per
-   pixel; for a uniform radius as a gather fused into step 3.
-3. Prefix sum along each direction (eq. 10), then the sum over directions and the vertical
-   prefix sum (eq. 11) in one pass that writes the colour image.
+2. Splat the terms into one buffer per edge direction (eq. 9). Radius map: one work item per
+   tile of pixels; the tiles of one launch lie further apart than any kernel reaches, so adds
+   are plain, except the atomic ones near the border where folded terms land. Uniform radius:
+   a gather from the fixed-point image, fused into step 3.
+3. Prefix sum along each direction (eq. 10) in column chunks (every pass streams row
+   segments), a carry per line and chunk, then the sum over directions plus carries and the
+   vertical prefix sum (eq. 11) in one pass that writes the colour image.
 
-Exactness. All sums are integers: pixel ``i`` splats ``q_i = rint(colour_i 2^e / area_i)``
-(``e`` per channel) in wrapping 64-bit arithmetic, so every prefix sum is exact and the
-result does not depend on the order of the atomic adds (deterministic). ``e`` is chosen so the
-true output fits: ``2^(62 - e)`` bounds the sum of ``|colour|`` over the image (any radii) or
-the largest ``|colour|`` (uniform radius, where each output pixel averages ``area`` inputs).
-The only error is quantisation, at most ``0.5`` unit per splat: an output pixel covered by
-``n`` kernels is off by at most ``n 2^-(e+1)`` before its final rounding to float32. For a
-uniform radius that is ``area * 2^-63`` of the largest colour (< 1e-13 for radius 200); for a
-radius map it is below ``n * N * mean|colour| * 2^-63`` for ``N`` pixels (3e-8 of the mean
-colour for 1920x1080 and n = 1e5).
+Exactness. All sums are integers in wrapping 64-bit arithmetic, so every prefix sum is exact
+and no result depends on the order of additions (runs are bit-identical). Radius map: pixel
+``i`` splats ``q_i = rint(colour_i 2^e / area_i)`` with ``2^(62 - e)`` above the total
+``|colour|`` of the image, so no output can overflow; an output covered by ``n`` kernels is off
+by at most ``n 2^-(e+1) <= n N mean|colour| 2^-62`` for ``N`` pixels (4e-8 of the mean colour
+for 1920x1080 and n = 1e5) before its rounding to float32. Uniform radius: ``q = rint(colour 2^e)``
+in int32 (``2^e max|colour| <= 2^30``), summed over the kernel and divided by its area at the
+end: off by at most ``2^-(e+1) <= 2^-30`` of the largest colour. Radius 0 returns the image.
 
 Borders. The buffers cover exactly the image, whatever the radius: a term outside is moved
 along its direction to where its line enters the image, or into a per-column sum of the rows

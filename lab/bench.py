@@ -106,6 +106,7 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
     from .config import to_table
     from .errors import UserError
     from .precompute import precompute
+    from .precompute.cell import landed_rays
     from .psf_tracing.benchmark import measure_throughput
     from .psf_tracing.models import load_model
     from .report.atlas import write_atlas
@@ -121,7 +122,7 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
         cell = model.grid.size - 1
         traced = model.trace_checked(cell)
         t = time.perf_counter()
-        sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=traced.n_rays)
+        sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=landed_rays(traced))
         entry["sparsify_largest"] = {"cell": cell, "rays": traced.n_rays,
                                      "seconds": time.perf_counter() - t, **sp.stats}
         return entry

@@ -24,7 +24,7 @@ from lab.errors import UserError
 from .naming import source_digest
 from .shards import summary, write_shard
 
-__all__ = ["dense_crop", "build_cell", "CellJob", "run_cell", "set_threads"]
+__all__ = ["dense_crop", "landed_rays", "build_cell", "CellJob", "run_cell", "set_threads"]
 
 
 def dense_crop(psf: np.ndarray) -> np.ndarray:
@@ -33,6 +33,14 @@ def dense_crop(psf: np.ndarray) -> np.ndarray:
     ys, xs = np.nonzero(np.any(psf != 0, axis=2))
     r = int(max(np.abs(ys - c).max(), np.abs(xs - c).max())) if len(ys) else 0
     return psf[c - r:c + r + 1, c - r:c + r + 1]
+
+
+def landed_rays(traced):
+    """The hit count behind each channel of a traced PSF (one int if monochrome), for the
+    sparsifier's noise model: each channel is a histogram normalised by the hits it received,
+    which excludes vignetted rays and rays that picked another channel."""
+    landed = [int(n) for n in traced.counts.sum(axis=(0, 1))]
+    return landed[0] if len(landed) == 1 else landed
 
 
 def build_cell(model, cell: int) -> dict:
@@ -52,7 +60,7 @@ def build_cell(model, cell: int) -> dict:
     traced = model.trace_checked(cell, seed=cfg.seed)
     t1 = time.perf_counter()
     psf = traced.psf
-    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=traced.n_rays)
+    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced))
     t2 = time.perf_counter()
     stats = {k: float(v) for k, v in sp.stats.items()}
     return {"cell": np.array(cell, np.int64), "points": sp.points, "values": sp.values,

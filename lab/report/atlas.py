@@ -3,13 +3,15 @@
 Columns are PSF samples spread evenly over the PSF space (in its power-remapped grid coordinates,
 so they follow the sample density); for a 2-D space each block of rows is one value of the first
 coordinate. Per sample, four tiles, each zoomed to that sample's own extent (its radius is in the
-caption):
+caption) and shown on a log scale over 4 decades below the tile's peak, so faint tails (a
+medium's scattering halo, a lens's flare) show beside the peak:
 
-1. the dense pre-filtered PSF (normalised to its peak; RGB models in colour),
+1. the dense pre-filtered PSF (RGB models in colour),
 2. its Laplacian (5-point, summed over channels; red > 0, blue < 0),
 3. the spreadlets (each a dot at its offset, coloured by the sign of its value summed over
-   channels, sqrt-compressed so small values stay visible), or "fast track" when dense,
-4. the PSF reconstructed from the spreadlets by Poisson integration, on the dense tile's scale.
+   channels), or "fast track" when the sample is stored dense,
+4. the PSF reconstructed from the spreadlets by Poisson integration, on the dense tile's scale:
+   what the runtime draws.
 
 Downscaled tiles keep the extreme value of each block (max-|.| pooling), so one-pixel rims and
 single spreadlets stay visible at any zoom.
@@ -33,6 +35,7 @@ TILE = 144
 GAP = 6
 LEFT = 96
 TITLE = 34
+DECADES = 4.0  # every tile is on a log scale over this many decades below its peak
 ROWS = ("dense PSF", "Laplacian", "spreadlets", "reconstructed")
 
 
@@ -93,24 +96,26 @@ def _tile(rgb: np.ndarray, tile: int) -> Image.Image:
     return img.resize((tile, tile), Image.NEAREST)
 
 
+def _log(x: np.ndarray) -> np.ndarray:
+    """|values| relative to the tile's peak on a log scale: 1 at the peak, 0 at DECADES below."""
+    return np.clip(1.0 + np.log10(np.maximum(np.abs(x), 1e-30)) / DECADES, 0.0, 1.0)
+
+
 def _heat(values: np.ndarray, top: float, tile: int) -> Image.Image:
     from matplotlib import colormaps
 
-    v = _pool(values, tile)
+    v = _log(np.maximum(_pool(values, tile), 0.0) / top)
     if v.ndim == 3 and v.shape[2] == 3:
-        return _tile(v / top, tile)
-    return _tile(colormaps["magma"](np.clip(v.reshape(v.shape[:2]) / top, 0, 1))[..., :3], tile)
+        return _tile(v, tile)
+    return _tile(colormaps["magma"](v.reshape(v.shape[:2]))[..., :3], tile)
 
 
-def _signed(values: np.ndarray, tile: int, compress: bool = False) -> Image.Image:
+def _signed(values: np.ndarray, tile: int) -> Image.Image:
     from matplotlib import colormaps
 
     v = _pool(values, tile)
-    top = float(np.abs(v).max()) or 1.0
-    s = v / top
-    if compress:
-        s = np.sign(s) * np.sqrt(np.abs(s))
-    return _tile(colormaps["RdBu_r"](0.5 + 0.5 * s)[..., :3], tile)
+    s = v / (float(np.abs(v).max()) or 1.0)
+    return _tile(colormaps["RdBu_r"](0.5 + 0.5 * np.sign(s) * _log(s))[..., :3], tile)
 
 
 def _cell_tiles(db, i: int, tile: int) -> list[Image.Image]:
@@ -130,7 +135,7 @@ def _cell_tiles(db, i: int, tile: int) -> list[Image.Image]:
     inside = (np.abs(points.astype(np.int64)) <= c - 1).all(axis=1)
     np.add.at(lap, (c + points[inside, 1].astype(np.int64), c + points[inside, 0].astype(np.int64)),
               values[inside])
-    tiles.append(_signed(lap.sum(axis=2), tile, compress=True))
+    tiles.append(_signed(lap.sum(axis=2), tile))
     tiles.append(_heat(poisson_integrate(lap), top, tile))
     return tiles
 
@@ -170,7 +175,8 @@ def render_atlas(db, columns: int = 8, blocks: int = 4, tile: int = TILE) -> tup
     draw = ImageDraw.Draw(img)
     kind = "RGB" if db.channels == 3 else "monochrome"
     draw.text((GAP, 8), f"{db.model}: {db.n_samples} PSF samples, beta {list(db.grid.beta)}, {kind}, "
-                        f"{db.psf_resolution}^2 traced; each tile zoomed to its PSF", fill=(0, 0, 0),
+                        f"{db.psf_resolution}^2 traced; each tile zoomed to its PSF, log scale over "
+                        f"{DECADES:g} decades", fill=(0, 0, 0),
               font=_font(15))
     small = _font(11)
     for b, row in enumerate(rows):

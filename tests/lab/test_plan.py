@@ -49,7 +49,7 @@ def test_describe_lists_everything():
     assert lines[0] == "plan for scene 'demo' (" + str(SCENES / "demo.toml") + "), 1024x1024"
     assert "PSF models to precompute: simple_lens" in lines
     assert "runtime passes: spreadlets -> splat -> filter" in lines
-    assert any(line.strip().startswith("dof") and "85 mm f/1.4" in line for line in lines)
-    assert any("mitsuba_thinlens" in line and "256 spp" in line for line in lines)
+    assert any(line.strip().startswith("dof") and "85 mm f/1.2" in line for line in lines)
+    assert any("mitsuba_thinlens" in line and "512 spp" in line for line in lines)
     assert any(line.startswith("  motion blur:") for line in lines)
     assert "PSF models to precompute: none" in make_plan(scene(PINHOLE)).describe()

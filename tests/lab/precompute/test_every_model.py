@@ -1,0 +1,56 @@
+"""Every registered PSF model goes through the same job: trace, sparsify, shards, database, atlas."""
+import numpy as np
+import pytest
+
+from lab.precompute import precompute
+from lab.psf_tracing.models import load_model, model_names
+from lab.report.atlas import render_atlas
+from lab.report.table1 import table1_row
+from runtime_cl.database import SpreadletDatabase
+
+from precompute_helpers import SMALL
+
+_RAYS = {"rays_per_psf": 2 ** 14, "rays_per_launch": 2 ** 14}
+# Tiny settings per model (a few PSFs, few rays); seconds each once compiled.
+TINY = {
+    "simple_lens": SMALL,
+    "combined": {"max_coc_px": 4.0, "max_motion_px": 6.0, "samples": 10, "psf_resolution": 21,
+                 "rays_per_pixel": 64, **_RAYS},
+    "stylized": {"max_coc_px": 6.0, "samples": 10, "psf_resolution": 21, "rays_per_pixel": 64, **_RAYS},
+    "physical_lens": {"samples": 10, "psf_resolution": 181, "rays_per_pixel": 16, **_RAYS},
+    "volume": {"samples": 10, "psf_resolution": 63, **_RAYS},
+}
+
+
+def _check_job(name, cache):
+    model = load_model(name, TINY[name])
+    result = precompute(model, progress=False)
+    db = SpreadletDatabase.load(result.path, expect_model=name)
+    assert db.n_samples == model.grid.size == result.cells
+    assert db.channels == model.channels and db.grid.ns == model.grid.ns
+    assert db.params["symmetries"] == list(model.symmetries)
+    for i in range(db.n_samples):  # every stored dense PSF is a normalised image per channel
+        np.testing.assert_allclose(db.dense_psf(i).sum(axis=(0, 1)), 1.0, rtol=1e-4)
+    img, cells = render_atlas(db, columns=4, blocks=2)
+    assert len(cells) >= 3 and np.asarray(img).std() > 10
+    row = table1_row(db)
+    assert row["samples"] == db.n_samples and 0 < row["mean_sparsity_percent"] <= 100
+    assert 0 < row["mean_similarity_ssim"] <= 1
+    again = precompute(model, progress=False)
+    assert again.reused and again.path == result.path
+
+
+@pytest.mark.parametrize("name", ["combined", "stylized"])
+def test_two_dimensional_and_rgb_models(name, cache):
+    if name not in model_names():
+        pytest.skip(f"model {name} is not registered")
+    _check_job(name, cache)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(TINY))
+def test_every_registered_model(name, cache):
+    assert set(model_names()) <= set(TINY), "add tiny settings for the new model to TINY"
+    if name not in model_names():
+        pytest.skip(f"model {name} is not registered")
+    _check_job(name, cache)

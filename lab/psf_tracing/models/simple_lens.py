@@ -23,9 +23,9 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.models.base import PSFModel, register_model
-from lab.psf_tracing.models.common import ApertureKeys
+from lab.psf_tracing.models.common import ApertureKeys, check_common, check_number
 from lab.psf_tracing.space import NestedGrid
-from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH, RayHits
+from lab.psf_tracing.tracer import RayHits
 
 __all__ = ["SimpleLens", "SimpleLensConfig", "PSF_MARGIN_PX", "min_psf_resolution"]
 
@@ -37,15 +37,6 @@ PSF_MARGIN_PX = 2
 def min_psf_resolution(max_coc_px: float) -> int:
     """Smallest R whose image, centred at R//2, holds a CoC of radius ``max_coc_px`` plus the margin."""
     return 2 * (math.ceil(max_coc_px) + PSF_MARGIN_PX) + 1
-
-
-def _positive(name, value, integer=False, zero_ok=False):
-    kinds = (int,) if integer else (int, float)
-    ok = (isinstance(value, kinds) and not isinstance(value, bool) and math.isfinite(value)
-          and (value >= 0 if zero_ok else value > 0))
-    if not ok:
-        what = "an integer" if integer else "a finite number"
-        raise UserError(f"{name} = {value!r}: must be {what} {'>= 0' if zero_ok else '> 0'}")
 
 
 @dataclass(frozen=True)
@@ -100,14 +91,10 @@ class SimpleLensConfig(ApertureKeys):
     lens_width_px: int = 1920
 
     def __post_init__(self):
-        for name in ("max_coc_px", "beta", "density"):
-            _positive(name, getattr(self, name))
-        for name in ("samples", "psf_resolution", "rays_per_psf", "rays_per_pixel", "rays_per_launch",
-                     "lens_width_px"):
-            _positive(name, getattr(self, name), integer=True)
-        _positive("seed", self.seed, integer=True, zero_ok=True)
-        if self.rays_per_launch > MAX_RAYS_PER_LAUNCH:
-            raise UserError(f"rays_per_launch = {self.rays_per_launch}: at most {MAX_RAYS_PER_LAUNCH}")
+        check_common(self)
+        for name in ("max_coc_px", "beta"):
+            check_number(name, getattr(self, name))
+        check_number("lens_width_px", self.lens_width_px, integer=True)
         need = min_psf_resolution(self.max_coc_px)
         if self.psf_resolution < need:
             raise UserError(

@@ -46,11 +46,11 @@ def local_level(psf: np.ndarray, reach: int | np.ndarray = LEVEL_REACH,
                 level: np.ndarray | None = None) -> np.ndarray:
     """The PSF's level near each pixel, (R, R, C) float64.
 
-    ``min(level_c, max(f_c, max g_c))``: the largest value ``g`` within the (2 reach + 1)^2
-    window around the pixel, where ``g`` is ``f`` without the structures narrower than 2 px (a
-    grey opening), so a one-pixel peak is its own level but does not set the level of the faint
-    halo around it; a plateau and its ramps (at least 2 px wide) are unchanged by the opening.
-    Zero where the window holds no light.
+    ``min(level_c, max(max f_c, max g_c))``: the largest value of ``f`` within 1 px and of ``g``
+    within the (2 reach + 1)^2 window around the pixel, where ``g`` is ``f`` without the structures
+    narrower than 2 px (a grey opening). A one-pixel peak or line thus sets the level of itself and
+    its neighbours (its Laplacian's support) but not of the faint halo around it; a plateau and its
+    ramps (at least 2 px wide) are unchanged by the opening. Zero where no light is that near.
 
     Parameters
     ----------
@@ -66,12 +66,12 @@ def local_level(psf: np.ndarray, reach: int | np.ndarray = LEVEL_REACH,
         level = (f * f).sum(axis=(0, 1)) / f.sum(axis=(0, 1))
     wide = scipy.ndimage.grey_opening(f, size=(2, 2, 1), mode="constant")
     reach = np.asarray(reach)
-    near = np.zeros_like(f)
+    near = scipy.ndimage.maximum_filter(f, size=(3, 3, 1), mode="constant")
     for r in np.unique(reach):
         at = slice(None) if reach.ndim == 0 else reach == r
         size = (2 * int(r) + 1, 2 * int(r) + 1, 1)
-        near[at] = scipy.ndimage.maximum_filter(wide, size=size, mode="constant")[at]
-    return np.minimum(np.maximum(near, f), level)
+        near[at] = np.maximum(near, scipy.ndimage.maximum_filter(wide, size=size, mode="constant"))[at]
+    return np.minimum(near, level)
 
 
 def importance(psf: np.ndarray, lap: np.ndarray, floor: np.ndarray | None = None,

@@ -14,7 +14,7 @@ from lab.precompute.cell import landed_rays
 from lab.psf_tracing.models import load_model
 from lab.psf_tracing.models.volume import Volume, VolumeConfig
 from lab.sparsify import analytic, sparsify
-from lab.sparsify.laplacian import local_level, psf_laplacian
+from lab.sparsify.laplacian import importance, local_level, psf_laplacian
 from lab.sparsify.moments import MomentMatch, moment_basis
 from lab.sparsify.noise import coarse_laplacian, denoise, K_SIGMA
 from lab.sparsify.voronoi import assign, collapse
@@ -115,6 +115,12 @@ def test_local_level_is_the_level_on_a_disc_and_follows_a_faint_part():
     assert lv[48, 48, 0] == pytest.approx((g * g).sum() / g.sum())
     assert lv[48, 18, 0] == pytest.approx(faint)          # its rim, measured against its height
     assert lv[48, 45, 0] == pytest.approx(faint)          # the point does not set its neighbours'
+    # a structure thinner than 2 px (a plus of 5 pixels) still sets its own Laplacian's level
+    plus = np.zeros((16, 16, 1))
+    plus[7:10, 8, 0] = plus[8, 7:10, 0] = 0.2
+    lap = psf_laplacian(plus)
+    imp = importance(plus, lap)
+    assert np.isfinite(imp).all() and np.array_equal(imp > 0, lap[..., 0] != 0)
 
 
 def test_denoise_keeps_a_point_spreads_a_faint_halo_and_keeps_a_cut_edge():

@@ -9,7 +9,7 @@ from lab.sparsify.dart import throw_darts
 from lab.sparsify.laplacian import importance, psf_laplacian, working_box
 from lab.sparsify.lloyd import lloyd
 from lab.sparsify.merge import merge_coincident
-from lab.sparsify.moments import MomentMatch, harmonic_basis
+from lab.sparsify.moments import MomentMatch, moment_basis
 from lab.sparsify.voronoi import assign, collapse
 
 
@@ -98,7 +98,7 @@ def test_moment_matching_restores_the_harmonic_moments(annealing_setup):
     lab, _ = assign(sy, sx, py, px, lap_b.shape[:2])
     raw = collapse(lab, lap_s, py.size)
     fixed = match(py, px, raw)
-    basis = harmonic_basis(py, px, match.cy, match.cx, match.scale)
+    basis = moment_basis(py, px, match.cy, match.cx, match.scale)
     np.testing.assert_allclose(basis @ fixed, match.target, atol=1e-12)
     assert np.abs(basis @ raw - match.target).max() > 1e-6  # the collapse alone misses them
     assert np.abs(fixed - raw).max() < 0.2 * np.abs(raw).max()  # a small correction

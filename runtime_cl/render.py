@@ -96,8 +96,8 @@ class Renderer:
         colour : array_like, float32, (H, W, C)
             Linear radiance, C = 1 or 3; zero pixels splat nothing.
         coords : array_like, float32, (H, W, ns)
-            PSF coordinates per pixel (for ``simple_lens``: |CoC radius| in pixels, see
-            :func:`runtime_cl.psf_coords.thin_lens_coords`), inside the database's ranges.
+            PSF coordinates per pixel (for ``simple_lens``: |CoC radius| in pixels; every model's
+            map is in :mod:`runtime_cl.psf_coords`), inside the database's ranges.
         method : {"spreadlets", "splat", "filter"}
             LSR18's method or one of its two baselines (default ``"spreadlets"``).
         angle : array_like, float, (H, W), optional

@@ -11,7 +11,8 @@ Splat baseline adds).
 
 Kernel times come from OpenCL event profiling, best of ``repeats`` after one warm-up render,
 so they do not include compilation or other processes' bursts on a shared machine. Usable
-without the lab: ``python -m runtime_cl.bench`` prints the figures as JSON.
+without the lab: ``python -m runtime_cl.bench`` prints the figures as JSON (``--rotation``: the
+cost of per-pixel PSF rotation, :func:`rotation`).
 """
 from __future__ import annotations
 
@@ -195,7 +196,13 @@ def main(argv=None) -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--run-max", type=int, default=RUN_MAX)
     p.add_argument("--edge", type=float, default=None, help="soft disc rim in pixels (default 0; defocus 1)")
+    p.add_argument("--rotation", action="store_true",
+                   help="instead: the cost of per-pixel rotation (defocus scene, r-max default 50, spreadlets)")
     a = p.parse_args(argv)
+    if a.rotation:
+        print(json.dumps(rotation(a.size, a.size, a.r_max or 50.0, a.samples or 64,
+                                  a.edge if a.edge is not None else 1.0, a.channels, repeats=a.repeats), indent=1))
+        return
     defocus = a.layout == "defocus"
     spreadlets = a.spreadlets if a.spreadlets is not None or defocus else 50
     print(json.dumps(run(a.size, a.size, spreadlets, a.r_max or (100.0 if defocus else 32.0), a.channels,

@@ -249,6 +249,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
             }
 #if ROTATE
             const float2 cs = rotation_cs(a);
+            const int turned = cs.x != 1.0f || cs.y != 0.0f;  // else: angle 0, the unrotated code
 #endif
             const long centre = (long)(y - y0 + PAD) * buf_w + (x - x0 + PAD);
             x += n;
@@ -256,12 +257,13 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
             if (DENSE_ALL || fast[cell]) {
                 const int r = dense_r[cell];
 #if ROTATE
-                splat_dense_rotated(tile + DENSE_GROUP * group_stride + centre, buf_w, run_col, n, r,
-                                    dense_v + dense_off[cell] * DC, stored_sum(dense_sum, cell), cs);
-#else
+                if (turned)
+                    splat_dense_rotated(tile + DENSE_GROUP * group_stride + centre, buf_w, run_col, n, r,
+                                        dense_v + dense_off[cell] * DC, stored_sum(dense_sum, cell), cs);
+                else
+#endif
                 splat_dense(tile + DENSE_GROUP * group_stride + centre - ((long)r * buf_w + r),
                             buf_w, run_col, n, r, dense_v + dense_off[cell] * DC, span + span_off[cell]);
-#endif
                 n_dense += dense_n[cell] * n;
                 continue;
             }
@@ -270,13 +272,15 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
             const long j0 = C[cell], j1 = C[cell + 1];
             n_spreadlets += (j1 - j0) * n;
 #if ROTATE
-            splat_spreadlets_rotated(lap, buf_w, P, V, j0, j1, run_col, n, cs);
-#else
+            if (turned) {
+                splat_spreadlets_rotated(lap, buf_w, P, V, j0, j1, run_col, n, cs);
+                continue;
+            }
+#endif
             for (long j = j0; j < j1; ++j) {
                 const short2 p = P[j];
                 splat_run(lap + (long)p.y * buf_w + p.x, DB_VALUE(V, j), run_col, n);
             }
-#endif
         }
     }
     counts[2 * t] = n_spreadlets;

@@ -61,7 +61,7 @@ class GatherFilter:
         kernel_ms, download_ms : float
             Event-profiled times in milliseconds.
         psf_pixels : int
-            PSF pixels gathered (inside the image; rotated: with a bilinear tap inside it).
+            PSF pixels gathered (inside the image; rotated: pixels of the turned PSF's support).
         """
         import pyopencl as cl
 
@@ -78,7 +78,8 @@ class GatherFilter:
         out_buf = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, out.nbytes)
         counts_buf = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, counts.nbytes)
         ev = self.kernel(q, (height,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"],
-                         b["dense_r"], b["dense_off"], b["dense_v"], b["dense_sum"], out_buf, counts_buf, height, width)
+                         b["dense_r"], b["dense_off"], b["dense_v"], b["dense_sum"], out_buf, counts_buf,
+                         height, width)
         ev_down = cl.enqueue_copy(q, out, out_buf, wait_for=[ev], is_blocking=False)
         ev_counts = cl.enqueue_copy(q, counts, counts_buf, wait_for=[ev], is_blocking=False)
         ev_down.wait()

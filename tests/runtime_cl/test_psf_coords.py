@@ -138,7 +138,8 @@ def test_physical_lens_bad_input():
         psf_coords(None, np.full((5, 8), 3.0), db)
     far = np.full((5, 7), 3.0)
     far[1, 1] = 50.0
-    with pytest.raises(InputError, match=r"depth: 1 pixel\(s\) outside the database range \[0.5, 20.0\] m.*far_m >= 50"):
+    with pytest.raises(InputError, match=r"depth: 1 pixel\(s\) outside the database range \[0.5, 20.0\] m"
+                                         r".*far_m >= 50"):
         psf_coords(None, far, db)
     far[1, 1] = np.inf
     with pytest.raises(InputError, match="give the background a finite depth"):

@@ -89,8 +89,8 @@ class DeviceDatabase:
             "C": db.C, "P": db.P[order], "V": db.V[order], "fast": db.fast_track.astype(np.uint8),
             "dense_r": db.dense_radius, "dense_off": db.dense_offsets, "dense_v": db.dense_values,
             "span_off": span_off, "span": span, "dense_n": dense_n,
-            "dense_sum": np.add.reduceat(db.dense_values.astype(np.float64), db.dense_offsets[:-1],
-                                         axis=0).astype(np.float32),
+            "dense_sum": np.add.reduceat(db.dense_values, db.dense_offsets[:-1], axis=0,
+                                         dtype=np.float64).astype(np.float32),
             "psf_thr": self.tables.thr, "psf_bucket": self.tables.bucket,
         }
         self.buffers, events = {}, []

@@ -171,6 +171,15 @@ def bench_precompute(repeats: int, models=None, build: bool = True, workers: int
     return _write("precompute", data)
 
 
+def bench_rotation(repeats: int, size: int = 512, r_max: float = 50.0) -> Path:
+    """The cost of per-pixel PSF rotation (:func:`runtime_cl.bench.rotation`): spreadlets (and
+    the pixel-by-pixel unrotated kernel) with a constant and a per-pixel angle over without, as
+    kernel-time ratios measured in the same run."""
+    from runtime_cl.bench import rotation
+
+    return _write("rotation", rotation(size, size, r_max=r_max, repeats=repeats))
+
+
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,
               workers: int = 1) -> list[Path]:
     from .errors import UserError
@@ -182,4 +191,6 @@ def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = Tr
         out.append(bench_precompute(repeats, models, build, workers))
     if what in ("runtime", "all"):
         out.append(bench_runtime(scene_path, repeats))
+    if what == "rotation":
+        out.append(bench_rotation(repeats))
     return out

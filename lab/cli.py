@@ -16,6 +16,7 @@ typical use:
   splatlab plan scenes/demo.toml                 what a scene calls for, what runs, what is skipped
   splatlab report scenes/demo.toml               precompute + reference + runtime + SSIM/timing report
   splatlab render in.exr --db simple_lens.spdb --method spreadlets --out out.exr
+  splatlab render moving.exr --db combined.spdb --out out.exr   motion.X, motion.Y channels in pixels
   splatlab render in.exr --method polygon --aperture hexagon --out out.exr   exact polygonal bokeh
   splatlab bench runtime                         method timings and kernel throughput -> reports/bench/
   splatlab doctor                                what is installed, what is missing and how to fix it
@@ -57,7 +58,10 @@ DESCRIPTIONS = {
     "render": "Render a labelled-pixel EXR (from `splatlab reference` or any renderer that writes R, G, B, "
               "A, Z and a splatlab.camera header) with a spreadlet database on the OpenCL device, or "
               "with --method polygon exactly with a flat polygonal aperture (MHU21; no database): each "
-              "pixel spreads over the rasterised polygon at its |CoC| from Z and the thin-lens header.",
+              "pixel spreads over the rasterised polygon at its |CoC| from Z and the thin-lens header. "
+              "Any model's database works: combined (depth of field + motion) reads the channels "
+              "motion.X, motion.Y (pixels over the shutter, Y up); each pixel's PSF is turned as the "
+              "database's symmetries say (motion direction, side of the focal plane, azimuth).",
     "report": "The whole job for one scene: plan, labelled-pixel input and Mitsuba reference, PSF "
               "databases, every runtime method, then SSIM/PSNR against the reference and timings in "
               "reports/<scene>/index.html and report.json. Every stage is cached by content hash.",
@@ -136,13 +140,14 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")
 
     p = sub.add_parser("bench", description=DESCRIPTIONS["bench"], help="benchmarks; JSON under reports/bench/")
-    p.add_argument("what", choices=("runtime", "precompute", "polygon", "all"),
+    p.add_argument("what", choices=("runtime", "precompute", "polygon", "rotation", "all"),
                    help="runtime: spreadlets vs Splat vs Filter and kernel throughput at 1024^2 on the "
                         "demo scene; precompute: M rays/s per PSF model, and (unless --no-build) the "
                         "wall time to build each model's database at default settings, LSR18 Table 1 "
                         "and a PSF atlas per model; polygon: MHU21 exact polygonal bokeh (time vs "
                         "radius, against brute force / Laplacian / dx dy, uniform blur vs FFT; "
-                        "not part of all)")
+                        "not part of all); rotation: the cost of per-pixel PSF rotation, spreadlets "
+                        "with a constant and a per-pixel angle over without (512^2; not part of all)")
     p.add_argument("--quick", action="store_true",
                    help="polygon: small sizes only (a smoke run in seconds)")
     p.add_argument("--scene", type=Path, default=DEMO_SCENE, help="scene to benchmark (default: demo)")

@@ -115,18 +115,19 @@ def cmd_render(args) -> int:
         raise UserError(f"--db: --method {args.method} needs a spreadlet database (splatlab precompute "
                         "MODEL --out FILE); only --method polygon works without one")
     from runtime_cl.database import SpreadletDatabase
-    from runtime_cl.psf_coords import psf_coords
+    from runtime_cl.psf_coords import needs_motion, psf_coords
     from runtime_cl.render import Renderer
     from runtime_cl.thin_lens import ThinLens
 
     from .exr_io import write_rgb
-    from .pipeline import read_input
+    from .pipeline import read_input, read_motion
 
     image = read_input(args.input, args.camera)
     db = SpreadletDatabase.load(args.db)
     camera = ThinLens.from_json(image.camera, f"{args.input} camera")
-    coords = psf_coords(camera, image.depth, db)
-    rendered, timing = Renderer(db).render(image.rgb, coords, args.method)
+    motion = read_motion(image, args.input, db.model) if needs_motion(db.model) else None
+    pc = psf_coords(camera, image.depth, db, motion)
+    rendered, timing = Renderer(db).render(image.rgb, pc.coords, args.method, angle=pc.angle)
     write_rgb(args.out, rendered[..., :3])
     print(f"{args.out}: {args.method}, {timing['kernel_ms']:.1f} ms kernels + "
           f"{timing['integrate_ms']:.1f} ms integration (+{timing['compile_ms']:.0f} ms kernel builds)")

@@ -2,9 +2,10 @@
 
 A labelled-pixel EXR (DESIGN.md contract) holds float32 channels ``R, G, B`` (linear radiance),
 ``A`` (coverage), ``Z`` (camera-space planar depth in metres along the optical axis; ``inf`` for
-background at infinity) and optional extras (``motion.X``, ``lens.U``, ``layer0.R``, ...), plus the
-header string attribute ``splatlab.camera`` holding the camera as JSON. Reading validates all of
-it and raises :class:`~lab.errors.UserError` naming the file and the fix.
+background at infinity) and optional extras (``motion.X``, ``motion.Y``: pixels moved over the
+shutter, X right, Y up; ``lens.U``, ``layer0.R``, ...), plus the header string attribute
+``splatlab.camera`` holding the camera as JSON. Reading validates all of it and raises
+:class:`~lab.errors.UserError` naming the file and the fix.
 """
 from __future__ import annotations
 

@@ -105,9 +105,11 @@ def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool 
 
 
 def run_method(renderer, image: LabelledImage, coords, method: str, runs: int = TIMED_RUNS) -> tuple:
-    """Warm up once (kernel builds), then time ``runs`` renders; returns (image, timing summary)."""
-    first, warm = renderer.render(image.rgb, coords, method)
-    samples = [renderer.render(image.rgb, coords, method)[1] for _ in range(runs)]
+    """Warm up once (kernel builds), then time ``runs`` renders; returns (image, timing summary).
+
+    ``coords``: the :class:`runtime_cl.psf_coords.PsfCoords` of the image (coordinates, angles)."""
+    first, warm = renderer.render(image.rgb, coords.coords, method, angle=coords.angle)
+    samples = [renderer.render(image.rgb, coords.coords, method, angle=coords.angle)[1] for _ in range(runs)]
 
     def median(key):
         return float(np.median([s[key] for s in samples]))
@@ -175,6 +177,16 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -
 
     write_report(report, out_dir)
     return report
+
+
+def read_motion(image: LabelledImage, path, model: str) -> np.ndarray:
+    """The labelled image's per-pixel motion (H, W, 2): channels ``motion.X``, ``motion.Y`` in pixels
+    over the shutter, X right, Y up (what a ``model`` database needs)."""
+    missing = [c for c in ("motion.X", "motion.Y") if c not in image.extra]
+    if missing:
+        raise UserError(f"{path}: channel(s) {missing} missing; a {model!r} database needs per-pixel motion "
+                        "(motion.X, motion.Y: pixels over the shutter, Y up); write them into the EXR")
+    return np.stack([image.extra["motion.X"], image.extra["motion.Y"]], axis=-1)
 
 
 def read_input(path, camera_file=None) -> LabelledImage:

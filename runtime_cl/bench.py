@@ -11,7 +11,8 @@ Splat baseline adds).
 
 Kernel times come from OpenCL event profiling, best of ``repeats`` after one warm-up render,
 so they do not include compilation or other processes' bursts on a shared machine. Usable
-without the lab: ``python -m runtime_cl.bench`` prints the figures as JSON.
+without the lab: ``python -m runtime_cl.bench`` prints the figures as JSON (``--rotation``: the
+cost of per-pixel PSF rotation, :func:`rotation`).
 """
 from __future__ import annotations
 
@@ -130,6 +131,58 @@ def run(height: int = 1024, width: int = 1024, spreadlets: int | None = 50, r_ma
     return out
 
 
+def rotation(height: int = 1024, width: int = 1024, r_max: float = 100.0, samples: int = 64, edge: float = 1.0,
+             channels: int = 3, methods=("spreadlets",), repeats: int = 3, seed: int = 0,
+             device: Device | None = None) -> dict:
+    """The cost of turning every pixel's PSF (``Renderer.render(angle=...)``), same run.
+
+    The ``defocus`` scene of :func:`run` (exact Laplacians of soft-rimmed discs) is rendered by
+    each method without an angle, then with two angle fields: ``constant`` (0.3 rad everywhere:
+    runs of same-cell pixels survive, so this is the cost of the turning arithmetic) and
+    ``per_pixel`` (each pixel's azimuth about the image centre, as a ``physical_lens``
+    database needs: every run is one pixel long). Spreadlets are turned both ways
+    (``bilinear``, ``nearest``); the unrotated kernel pixel by pixel (``run_max`` 1) shows how
+    much of the per-pixel cost is the lost runs. Renders are interleaved, best of ``repeats``.
+
+    Returns
+    -------
+    dict
+        ``device``, ``settings``, ``kernel_ms`` per configuration and ``ratios``: each rotated
+        configuration's kernel time over the same method's unrotated one.
+    """
+    device = device or get_device()
+    db = disc_database(r_max, samples=samples, edge=edge)
+    colour, coords = defocus_scene(height, width, r_max, channels, seed)
+    yy, xx = np.mgrid[0:height, 0:width]
+    angles = {"constant": np.full((height, width), 0.3, np.float32),
+              "per_pixel": np.arctan2(height / 2 - yy - 0.5, xx + 0.5 - width / 2).astype(np.float32)}
+    renderers = {"bilinear": Renderer(db, device), "nearest": Renderer(db, device, spreadlet_rotation="nearest"),
+                 "run_max_1": Renderer(db, device, run_max=1)}
+    configs = []
+    for method in methods:
+        configs.append((method, "unrotated", "bilinear", None))
+        if method == "spreadlets":
+            configs.append((method, "unrotated_run_max_1", "run_max_1", None))
+        for field in angles:
+            for how in (("bilinear", "nearest") if method == "spreadlets" else ("bilinear",)):
+                name = f"{field}_{how}" if method == "spreadlets" else field
+                configs.append((method, name, how, field))
+    best: dict = {}
+    for rep in range(repeats + 1):  # the first round warms up (kernel builds)
+        for method, name, how, field in configs:
+            _, t = renderers[how].render(colour, coords, method, angle=None if field is None else angles[field])
+            if rep:
+                key = f"{method}/{name}"
+                best[key] = min(best.get(key, np.inf), t["kernel_ms"])
+    ratios = {f"{key}_over_unrotated": ms / best[f"{key.split('/')[0]}/unrotated"]
+              for key, ms in best.items() if not key.endswith("/unrotated")}
+    return {"device": device.describe(),
+            "settings": {"height": height, "width": width, "r_max": r_max, "samples": samples, "edge": edge,
+                         "channels": channels, "repeats": repeats, "pad": db.pad, "rotated_pad": db.rotated_pad,
+                         "mean_spreadlets_per_sample": db.n_spreadlets / db.n_samples},
+            "kernel_ms": best, "ratios": ratios}
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--size", type=int, default=1024)
@@ -143,7 +196,13 @@ def main(argv=None) -> None:
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--run-max", type=int, default=RUN_MAX)
     p.add_argument("--edge", type=float, default=None, help="soft disc rim in pixels (default 0; defocus 1)")
+    p.add_argument("--rotation", action="store_true",
+                   help="instead: the cost of per-pixel rotation (defocus scene, r-max default 50, spreadlets)")
     a = p.parse_args(argv)
+    if a.rotation:
+        print(json.dumps(rotation(a.size, a.size, a.r_max or 50.0, a.samples or 64,
+                                  a.edge if a.edge is not None else 1.0, a.channels, repeats=a.repeats), indent=1))
+        return
     defocus = a.layout == "defocus"
     spreadlets = a.spreadlets if a.spreadlets is not None or defocus else 50
     print(json.dumps(run(a.size, a.size, spreadlets, a.r_max or (100.0 if defocus else 32.0), a.channels,

@@ -160,6 +160,19 @@ class SpreadletDatabase:
         """Canvas padding that holds the largest PSF, plus the zero ring (LSR18 section 6.2)."""
         return max(self.max_offset, int(self.dense_radius.max())) + 1
 
+    @property
+    def rotated_pad(self) -> int:
+        """Canvas padding that holds every PSF turned by any angle (``Renderer.render(angle=...)``).
+
+        A spreadlet at offset p, turned, lies within |p| of the centre along either axis and
+        reaches one pixel further when shared bilinearly; a dense crop of radius r turned
+        reaches less than (r + 1) sqrt(2) (``kernels/rotate.cl``); plus the zero ring.
+        """
+        p = self.P.astype(np.float64)
+        reach = int(np.ceil(np.sqrt((p ** 2).sum(axis=1)).max())) + 1 if len(p) else 0
+        dense = int(np.ceil(np.sqrt(2.0) * int(self.dense_radius.max()))) + 1
+        return max(reach, dense) + 1
+
     def spreadlets(self, i: int):
         """(P, V) of sample ``i``: (k, 2) int16 offsets and (k, channels) float32 values."""
         a, b = self.C[i], self.C[i + 1]

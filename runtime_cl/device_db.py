@@ -64,10 +64,13 @@ class DeviceDatabase:
     Attributes
     ----------
     buffers : dict of str -> pyopencl.Buffer
-        ``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n, psf_thr,
-        psf_bucket`` (``span*``, ``dense_n``: :func:`dense_row_spans`).
+        ``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n, dense_sum, psf_thr,
+        psf_bucket`` (``span*``, ``dense_n``: :func:`dense_row_spans`; ``dense_sum``: each dense
+        PSF's sum per channel, the energy a turned PSF keeps).
     options : list of str
-        ``-D`` options every kernel reading this database needs (PSF space, DC, PAD, HAS_FAST).
+        ``-D`` options every kernel reading this database needs (PSF space, DC, PAD).
+    base_options : list of str
+        ``options`` without PAD, for kernels that pad otherwise (rotated PSFs need more).
     upload_ms : float
         Time of the one-off upload (event profiling).
     """
@@ -86,6 +89,8 @@ class DeviceDatabase:
             "C": db.C, "P": db.P[order], "V": db.V[order], "fast": db.fast_track.astype(np.uint8),
             "dense_r": db.dense_radius, "dense_off": db.dense_offsets, "dense_v": db.dense_values,
             "span_off": span_off, "span": span, "dense_n": dense_n,
+            "dense_sum": np.add.reduceat(db.dense_values, db.dense_offsets[:-1], axis=0,
+                                         dtype=np.float64).astype(np.float32),
             "psf_thr": self.tables.thr, "psf_bucket": self.tables.bucket,
         }
         self.buffers, events = {}, []
@@ -98,4 +103,5 @@ class DeviceDatabase:
             self.buffers[name] = buf
         self.upload_ms = event_ms(*events)
         self.has_fast = bool(db.fast_track.any())
-        self.options = self.tables.options + [f"-DDC={db.channels}", f"-DPAD={db.pad}"]
+        self.base_options = self.tables.options + [f"-DDC={db.channels}"]
+        self.options = self.base_options + [f"-DPAD={db.pad}"]

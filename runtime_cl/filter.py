@@ -17,19 +17,26 @@ class GatherFilter:
         The uploaded database.
     colour_channels : int
         1 or 3 channels in the colour input.
+    rotate : bool
+        Turn each output pixel's PSF by its angle (``kernels/filter.cl``); :meth:`run` then
+        needs an angle buffer. Default False: the unrotated kernel.
     """
 
-    def __init__(self, ddb: DeviceDatabase, colour_channels: int):
+    def __init__(self, ddb: DeviceDatabase, colour_channels: int, rotate: bool = False):
         import pyopencl as cl
 
         if colour_channels not in (1, 3):
             raise InputError(f"colour channels = {colour_channels}: must be 1 or 3")
         self.ddb, self.device = ddb, ddb.device
         self.out_channels = max(colour_channels, ddb.db.channels)
-        options = ddb.options + [f"-DCC={colour_channels}", f"-DOC={self.out_channels}"]
-        program, self.build = self.device.program(("psf_space.cl", "filter.cl"), options)
+        self.rotate = bool(rotate)
+        options = ddb.options + [f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
+                                 f"-DROTATE={int(self.rotate)}"]
+        files = ("psf_space.cl", "rotate.cl", "filter.cl") if self.rotate else ("psf_space.cl", "filter.cl")
+        program, self.build = self.device.program(files, options)
         self.kernel = cl.Kernel(program, "filter_gather")
-        self.kernel.set_scalar_arg_dtypes([None] * 9 + [np.int32] * 2)
+        self.kernel.set_scalar_arg_dtypes([None] * 11 + [np.int32] * 2)
+        self._no_angle = None
         self.device.warm_up(self.build, lambda: self._warm_up(colour_channels))
 
     def _warm_up(self, channels: int):
@@ -40,10 +47,13 @@ class GatherFilter:
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         colour = cl.Buffer(ctx, flags, hostbuf=np.ones(channels, np.float32))
         coords = cl.Buffer(ctx, flags, hostbuf=lo)
-        self.run(colour, coords, 1, 1)
+        angle = cl.Buffer(ctx, flags, hostbuf=np.full(1, 0.5, np.float32)) if self.rotate else None
+        self.run(colour, coords, 1, 1, angle)
 
-    def run(self, colour_buf, coords_buf, height: int, width: int) -> tuple:
+    def run(self, colour_buf, coords_buf, height: int, width: int, angle_buf=None) -> tuple:
         """Filter an image already on the device.
+
+        ``angle_buf`` (float32 (H, W) radians) is required if and only if this filter rotates.
 
         Returns
         -------
@@ -51,17 +61,25 @@ class GatherFilter:
         kernel_ms, download_ms : float
             Event-profiled times in milliseconds.
         psf_pixels : int
-            PSF pixels gathered (inside the image).
+            PSF pixels gathered (inside the image; rotated: pixels of the turned PSF's support).
         """
         import pyopencl as cl
 
         ctx, q, b = self.device.context, self.device.queue, self.ddb.buffers
+        if (angle_buf is not None) != self.rotate:
+            raise InputError(f"angle_buf: {'required' if self.rotate else 'not read'} by a filter "
+                             f"built with rotate={self.rotate}")
+        if angle_buf is None:
+            if self._no_angle is None:  # the unrotated kernel never reads it
+                self._no_angle = cl.Buffer(ctx, cl.mem_flags.READ_ONLY, 16)
+            angle_buf = self._no_angle
         out = np.empty((height, width, self.out_channels), np.float32)
         counts = np.empty(height, np.int64)
         out_buf = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, out.nbytes)
         counts_buf = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, counts.nbytes)
-        ev = self.kernel(q, (height,), (1,), colour_buf, coords_buf, b["psf_thr"], b["psf_bucket"],
-                         b["dense_r"], b["dense_off"], b["dense_v"], out_buf, counts_buf, height, width)
+        ev = self.kernel(q, (height,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"],
+                         b["dense_r"], b["dense_off"], b["dense_v"], b["dense_sum"], out_buf, counts_buf,
+                         height, width)
         ev_down = cl.enqueue_copy(q, out, out_buf, wait_for=[ev], is_blocking=False)
         ev_counts = cl.enqueue_copy(q, counts, counts_buf, wait_for=[ev], is_blocking=False)
         ev_down.wait()

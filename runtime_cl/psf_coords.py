@@ -1,82 +1,72 @@
-"""Per-pixel PSF coordinates from camera + labelled pixels, one function per PSF model.
+"""Per-pixel PSF coordinates and rotation angles from a camera and labelled pixels.
 
-Each model registers a function ``(camera, depth, db) -> coords (H, W, ns) float32`` under its
-database model name; :func:`psf_coords` dispatches on ``db.model``. Out-of-range coordinates are
-an error that says how to rebuild the database, never a silent clamp.
+Each database model has a coordinate map ``(camera, depth, db, motion) -> PsfCoords`` (the
+coordinates and the angle each pixel's stored PSF is turned by, for the model's symmetries),
+registered under the model's name; :func:`psf_coords` dispatches on ``db.model``:
+
+=================  ===========================================  ================================
+model              coordinates                                  angle
+=================  ===========================================  ================================
+``simple_lens``    |CoC| px                                     pi behind focus (non-circular
+                                                                aperture: ``coc_sign``), or None
+``stylized``       |CoC| px                                     pi behind focus
+``combined``       |CoC| px, motion length px                   motion angle - reference
+                                                                (+ pi behind focus)
+``physical_lens``  depth m, eccentricity px                     azimuth about the image centre
+``volume``         light-camera distance m                      None
+=================  ===========================================  ================================
+
+Angles are radians, counter-clockwise from image +x with y up (image rows grow downward), as
+``Renderer.render(angle=...)`` takes them; motion vectors are (X right, Y up) in pixels.
+Out-of-range coordinates are an error that says how to rebuild the database, never a clamp.
 """
 from __future__ import annotations
 
-import numpy as np
-
+from . import coords_defocus, coords_lens  # noqa: F401  (they register the maps)
+from .coords_common import COORDINATE_MAPS, PsfCoords
+from .coords_defocus import thin_lens_coords
 from .database import SpreadletDatabase
 from .errors import InputError
-from .thin_lens import ThinLens
 
-COORDINATE_MAPS: dict = {}
-
-
-def register(model: str):
-    """Decorator: register a coordinate map for database model ``model``."""
-    def wrap(fn):
-        COORDINATE_MAPS[model] = fn
-        return fn
-    return wrap
+__all__ = ["COORDINATE_MAPS", "PsfCoords", "needs_motion", "psf_coords", "thin_lens_coords"]
 
 
-def psf_coords(camera, depth, db: SpreadletDatabase) -> np.ndarray:
-    """PSF coordinates for every pixel, by the database's model (see :data:`COORDINATE_MAPS`)."""
-    fn = COORDINATE_MAPS.get(db.model)
-    if fn is None:
-        raise InputError(f"database model {db.model!r}: the runtime has no coordinate map for it; "
+def _map(model: str):
+    entry = COORDINATE_MAPS.get(model)
+    if entry is None:
+        raise InputError(f"database model {model!r}: the runtime has no coordinate map for it; "
                          f"it knows {sorted(COORDINATE_MAPS)}")
-    return fn(camera, depth, db)
+    return entry
 
 
-@register("simple_lens")
-def thin_lens_coords(camera: ThinLens, depth, db: SpreadletDatabase) -> np.ndarray:
-    """|CoC radius| in pixels per pixel: the PSF coordinate of a ``simple_lens`` database.
+def needs_motion(model: str) -> bool:
+    """Whether a database of ``model`` needs per-pixel motion vectors (``combined``)."""
+    return _map(model).motion
+
+
+def psf_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfCoords:
+    """PSF coordinates and angles for every pixel, by the database's model.
 
     Parameters
     ----------
     camera : ThinLens
-        The thin-lens camera.
+        The camera of the labelled pixels.
     depth : array_like, (H, W)
-        Camera-space depth Z in metres (> 0, ``inf`` allowed); the image width W sets the pixel
-        scale.
+        Camera-space depth Z in metres.
     db : SpreadletDatabase
-        A ``simple_lens`` database (one coordinate: CoC radius in pixels).
+        The database to render with.
+    motion : array_like, (H, W, 2), optional
+        Motion over the shutter in pixels, (X right, Y up); required if :func:`needs_motion`,
+        ignored otherwise.
 
     Returns
     -------
-    ndarray, float32, (H, W, 1)
-
-    Raises
-    ------
-    InputError
-        Bad depths, a database of another model, or CoC radii beyond the database's range.
+    PsfCoords
+        ``coords`` (H, W, ns) float32 and ``angle`` (H, W) float32 radians or None; pass both to
+        :meth:`runtime_cl.render.Renderer.render`.
     """
-    if db.model != "simple_lens" or db.grid.ns != 1:
-        raise InputError(f"database model {db.model!r} with {db.grid.ns} coordinate(s): the thin-lens "
-                         "coordinates need a 'simple_lens' database; rebuild it with `splatlab "
-                         "precompute SCENE` for a thin-lens scene")
-    z = np.asarray(depth, dtype=np.float64)
-    if z.ndim != 2:
-        raise InputError(f"depth: shape {z.shape}, need (H, W)")
-    r = np.abs(camera.coc_radius_px(z, z.shape[1]))
-    lo, hi = db.grid.ranges[0]
-    over = r > hi
-    if np.any(over) or np.any(r < lo):
-        bad = int(np.count_nonzero(over | (r < lo)))
-        raise InputError(f"CoC radius: {bad} pixel(s) outside the database range [{lo}, {hi}] px "
-                         f"(largest found {float(r.max()):.4g} px, smallest {float(r.min()):.4g} px); "
-                         f"rebuild the database with a max CoC of at least {float(np.ceil(r.max()))} px "
-                         "(`splatlab precompute SCENE`), or stop the lens down")
-    out = r.astype(np.float32)
-    # float32 rounding may step just past the range ends that float64 respected
-    top = np.float32(hi)
-    if top > hi:
-        top = np.nextafter(top, np.float32(-np.inf))
-    bottom = np.float32(lo)
-    if bottom < lo:
-        bottom = np.nextafter(bottom, np.float32(np.inf))
-    return np.clip(out, bottom, top)[..., None]
+    entry = _map(db.model)
+    if entry.motion and motion is None:
+        raise InputError(f"motion: a {db.model!r} database needs per-pixel motion vectors (motion.X, motion.Y: "
+                         "pixels over the shutter, Y up); give the labelled image those channels")
+    return entry.fn(camera, depth, db, motion)

@@ -24,6 +24,7 @@ from .integrate import fft_friendly
 # pixel (LSR18's loop). Defocus scene, 1024^2 RGB, 128^2 tiles, CPU ms of the spreadlet kernel:
 # 1196 (16), 774 (32), 684 (64), 613 (128); demo database: 1179 (32), 1021 (64), 770 (128).
 RUN_MAX = 128
+SPREADLET_ROTATIONS = ("bilinear", "nearest")
 
 
 @dataclass
@@ -91,15 +92,27 @@ class TileSplatter:
     run_max : int
         Longest run of same-cell pixels splat together (default :data:`RUN_MAX`); 1 splats
         pixel by pixel. Runs change only the float rounding of the Laplacian canvas.
+    rotate : bool
+        Turn every pixel's PSF by its angle (``kernels/rotate.cl``; :meth:`run` then needs an
+        angle buffer). The canvas padding grows to :attr:`SpreadletDatabase.rotated_pad`.
+        Default False: the unrotated kernel, which never reads an angle.
+    spreadlet_rotation : {"bilinear", "nearest"}
+        With ``rotate``: how a turned spreadlet lands on the pixel grid (default ``"bilinear"``:
+        shared among four pixels; ``"nearest"``: the nearest one, LSR18's cheaper way, with
+        errors of 10-50 % of the PSF, see ``splat_spreadlets_rotated`` in ``kernels/splat.cl``).
     """
 
-    def __init__(self, ddb: DeviceDatabase, colour_channels: int, dense_all: bool, run_max: int = RUN_MAX):
+    def __init__(self, ddb: DeviceDatabase, colour_channels: int, dense_all: bool, run_max: int = RUN_MAX,
+                 rotate: bool = False, spreadlet_rotation: str = "bilinear"):
         import pyopencl as cl
 
         if colour_channels not in (1, 3):
             raise InputError(f"colour channels = {colour_channels}: must be 1 or 3")
         if not (isinstance(run_max, (int, np.integer)) and 1 <= run_max <= 256):
             raise InputError(f"run_max = {run_max!r}: must be an integer in [1, 256]")
+        if spreadlet_rotation not in SPREADLET_ROTATIONS:
+            raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
+                             f"{list(SPREADLET_ROTATIONS)}")
         self.ddb, self.device = ddb, ddb.device
         self.dense_all = bool(dense_all)
         self.colour_channels = colour_channels
@@ -107,12 +120,17 @@ class TileSplatter:
         self.run_max = int(run_max)
         has_fast = ddb.has_fast and not self.dense_all
         self.groups = 2 if has_fast else 1
-        options = ddb.options + [f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
-                                 f"-DDENSE_ALL={int(self.dense_all)}", f"-DHAS_FAST={int(has_fast)}",
-                                 f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}"]
-        program, self.build = self.device.program(("psf_space.cl", "splat.cl"), options)
+        self.rotate = bool(rotate)
+        self.pad = ddb.db.rotated_pad if self.rotate else ddb.db.pad
+        options = ddb.base_options + [f"-DPAD={self.pad}", f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
+                                      f"-DDENSE_ALL={int(self.dense_all)}", f"-DHAS_FAST={int(has_fast)}",
+                                      f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}",
+                                      f"-DROTATE={int(self.rotate)}",
+                                      f"-DSPREADLET_BILINEAR={int(spreadlet_rotation == 'bilinear')}"]
+        files = ("psf_space.cl", "rotate.cl", "splat.cl") if self.rotate else ("psf_space.cl", "splat.cl")
+        program, self.build = self.device.program(files, options)
         self.splat_kernel = cl.Kernel(program, "splat_tiles")
-        self.splat_kernel.set_scalar_arg_dtypes([None] * 16 + [np.int32] * 5)
+        self.splat_kernel.set_scalar_arg_dtypes([None] * 18 + [np.int32] * 5)
         self.merge_kernel = cl.Kernel(program, "merge_tiles")
         self.merge_kernel.set_scalar_arg_dtypes([None, None] + [np.int32] * 6)
         self._scratch: dict = {}
@@ -126,7 +144,8 @@ class TileSplatter:
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         colour = cl.Buffer(ctx, flags, hostbuf=np.ones(self.colour_channels, np.float32))
         coords = cl.Buffer(ctx, flags, hostbuf=lo.reshape(ns))
-        self.run(colour, coords, 1, 1)
+        angle = cl.Buffer(ctx, flags, hostbuf=np.full(1, 0.5, np.float32)) if self.rotate else None
+        self.run(colour, coords, 1, 1, angle_buf=angle)
 
     def _buffer(self, name: str, nbytes: int):
         import pyopencl as cl
@@ -140,7 +159,7 @@ class TileSplatter:
 
     def _layout(self, height: int, width: int, tile) -> tuple:
         """(tile_w, tile_h, tiles_x, tiles_y, bytes of the tile buffers), grown to fit the device."""
-        pad = self.ddb.db.pad
+        pad = self.pad
         if tile is None:
             tw, th = default_tile(height, width, pad, self.device.device.max_compute_units)
         else:
@@ -165,7 +184,7 @@ class TileSplatter:
                              "MiB per buffer; render a smaller image or tiles of it")
         return layout
 
-    def run(self, colour_buf, coords_buf, height: int, width: int, tile=None) -> SplatOutput:
+    def run(self, colour_buf, coords_buf, height: int, width: int, tile=None, angle_buf=None) -> SplatOutput:
         """Splat every pixel of an image already on the device.
 
         Parameters
@@ -177,10 +196,18 @@ class TileSplatter:
         tile : int or (int, int), optional
             Tile size (width, height) in input pixels, clamped to the image; default
             :func:`default_tile`. The result does not depend on it beyond float rounding.
+        angle_buf : pyopencl.Buffer, optional
+            float32 (H, W) angles in radians (see ``kernels/rotate.cl``); required if and only
+            if this splatter rotates.
         """
         import pyopencl as cl
 
-        pad, oc = self.ddb.db.pad, self.out_channels
+        if (angle_buf is not None) != self.rotate:
+            raise InputError(f"angle_buf: {'required' if self.rotate else 'not read'} by a splatter "
+                             f"built with rotate={self.rotate}")
+        if angle_buf is None:
+            angle_buf = self._buffer("no_angle", 16)  # the unrotated kernel never reads it
+        pad, oc = self.pad, self.out_channels
         hc, wc = canvas_shape(height, width, pad)
         tw, th, tiles_x, tiles_y, nbytes = self._layout(height, width, tile)
         ntiles = tiles_x * tiles_y
@@ -189,9 +216,9 @@ class TileSplatter:
         canvas_buf = self._buffer("canvas", self.groups * hc * wc * oc * 4)
         b, q = self.ddb.buffers, self.device.queue
         ev_splat = self.splat_kernel(
-            q, (ntiles,), (1,), colour_buf, coords_buf, b["psf_thr"], b["psf_bucket"], b["C"], b["P"],
+            q, (ntiles,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"], b["C"], b["P"],
             b["V"], b["fast"], b["dense_r"], b["dense_off"], b["dense_v"], b["span_off"], b["span"], b["dense_n"],
-            tiles_buf, counts_buf,
+            b["dense_sum"], tiles_buf, counts_buf,
             height, width, tw, th, tiles_x)
         ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
                                      wait_for=[ev_splat])

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from runtime_cl.bench import run
+from runtime_cl.bench import rotation, run
 from runtime_cl.synthetic import defocus_scene, disc_database
 
 
@@ -75,3 +75,14 @@ def test_defocus_scene_is_scene_like():
     assert 0.6 < np.mean((r >= 50) & (r <= 90)) < 0.9  # mostly a far, blurred background
     assert 0.08 < np.mean(r < 1) < 0.25  # an in-focus subject
     assert np.array_equal(defocus_scene(256, 256, 100.0, seed=3)[0], colour)  # seeded
+
+
+def test_rotation_benchmark_reports_ratios():
+    out = rotation(32, 40, r_max=6.0, samples=8, repeats=1)
+    ms, ratios = out["kernel_ms"], out["ratios"]
+    assert set(ms) == {"spreadlets/unrotated", "spreadlets/unrotated_run_max_1", "spreadlets/constant_bilinear",
+                       "spreadlets/constant_nearest", "spreadlets/per_pixel_bilinear", "spreadlets/per_pixel_nearest"}
+    assert all(v > 0 for v in ms.values())
+    key = "spreadlets/per_pixel_nearest"
+    assert ratios[f"{key}_over_unrotated"] == ms[key] / ms["spreadlets/unrotated"]
+    assert out["settings"]["rotated_pad"] > out["settings"]["pad"]

@@ -83,7 +83,9 @@ def test_thin_lens_coords():
     expect = np.abs(camera.coc_radius_px(depth, 4))
     np.testing.assert_allclose(coords[..., 0], expect, rtol=1e-6)
     assert coords[0, 0, 0] == 0.0  # in focus
-    np.testing.assert_array_equal(psf_coords(camera, depth, db), coords)
+    pc = psf_coords(camera, depth, db)
+    np.testing.assert_array_equal(pc.coords, coords)
+    assert pc.angle is None  # a disc database: symmetry rotation
 
 
 def test_thin_lens_coords_beyond_the_database():
@@ -102,8 +104,10 @@ def test_thin_lens_coords_beyond_the_database():
 def test_thin_lens_coords_need_a_simple_lens_database():
     db = random_database(np.random.default_rng(0), model="combined", beta=(2.0, 1.0), samples=12)
     camera = ThinLens(focal_length_mm=50, f_number=2.0, focus_distance_m=3.0)
-    with pytest.raises(InputError, match="'combined'.*coordinate map|'combined'.*simple_lens"):
+    with pytest.raises(InputError, match="motion: a 'combined' database needs per-pixel motion vectors"):
         psf_coords(camera, np.ones((2, 2)), db)
+    with pytest.raises(InputError, match=r"'combined' has PSF coordinates \['c0', 'c1'\].*'coc_radius_px'"):
+        psf_coords(camera, np.ones((2, 2)), db, np.zeros((2, 2, 2)))
     with pytest.raises(InputError, match="need a 'simple_lens' database"):
         thin_lens_coords(camera, np.ones((2, 2)), db)
 

@@ -17,6 +17,14 @@ runtime must do with them:
     Traced for motion along the config's ``motion_direction_deg``; a pixel moving at angle
     phi (counter-clockwise from image +x, y up) is drawn with the PSF rotated by
     phi - motion_direction_deg (plus 180 degrees if ``"coc_sign"`` applies and CoC > 0).
+``"optical_axis"``
+    The optics are rotation symmetric about the optical axis, but the PSF varies across the
+    image: only pixels on the image's +x side of the centre are traced (reference direction 0),
+    indexed by their distance from the centre (eccentricity). A pixel at azimuth phi about the
+    image centre (counter-clockwise from image +x, y up) is drawn with the PSF rotated by phi.
+
+Rotations turn the PSF counter-clockwise as the image is viewed; the runtime
+(:mod:`runtime_cl.psf_coords`, ``Renderer.render(angle=...)``) takes the angle in radians.
 """
 from __future__ import annotations
 
@@ -32,7 +40,7 @@ from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
 __all__ = ["ApertureKeys", "LensKeys", "check_number", "check_common", "whole_launches",
            "SYMMETRY_TAGS"]
 
-SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction")
+SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "optical_axis")
 
 # config key -> the aperture class's parameter
 _APERTURE_PARAMS = {"aperture_blades": "blades", "aperture_rotation_deg": "rotation_deg",

@@ -127,7 +127,8 @@ def test_database_for_another_model(tiny_input, tiny_db, tmp_path, capsys):
                                           "stats")}
     SpreadletDatabase(model="volume", **fields).save(other)
     out = tmp_path / "out.exr"
-    _expect_user_error(["render", tiny_input, "--db", other, "--out", out], capsys, "volume", "simple_lens")
+    # a volume database has a coordinate map, but not these coordinates
+    _expect_user_error(["render", tiny_input, "--db", other, "--out", out], capsys, "volume", "distance_m")
     assert not out.exists()
 
 

@@ -69,6 +69,20 @@ def test_symmetry_tags():
     assert m.aperture.blades == 6  # the default blade count
 
 
+def test_every_model_lists_documented_symmetries_the_runtime_maps():
+    from lab.psf_tracing.models import get_model, model_names
+    from lab.psf_tracing.models.common import SYMMETRY_TAGS
+    from runtime_cl.psf_coords import COORDINATE_MAPS
+
+    for name in model_names():
+        tags = get_model(name).symmetries
+        if isinstance(tags, property):  # simple_lens: by aperture, checked above
+            continue
+        assert set(tags) <= set(SYMMETRY_TAGS), name
+        assert name in COORDINATE_MAPS, name
+    assert get_model("physical_lens").symmetries == ("optical_axis",)
+
+
 @pytest.mark.parametrize("table, match", [
     ({"aperture": "polygon", "aperture_blades": 2}, "aperture_blades = 2"),
     ({"aperture": "polygon", "aperture_rounding": 1.2}, "aperture_rounding = 1.2"),

@@ -212,6 +212,15 @@ class Scene:
     def height(self) -> int:
         return self.info.resolution[1]
 
+    def input_layers(self) -> list[list[int]]:
+        """Shape indices per layer of the layered labelled input, nearest first; empty when no
+        shape has a ``layer`` key. The last layer holds the shapes without one (and the sky)."""
+        tagged = sorted({s.layer for s in self.shapes if s.layer is not None})
+        if not tagged:
+            return []
+        return [[i for i, s in enumerate(self.shapes) if s.layer == k] for k in tagged] + \
+            [[i for i, s in enumerate(self.shapes) if s.layer is None]]
+
     def to_dict(self) -> dict:
         """Canonical, JSON-serialisable contents (no file name; ``None`` dropped) for hashing.
 
@@ -271,6 +280,10 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
             raise UserError(f"{source}: psf.{model} must be a [psf.{model}] table, got {table!r}")
     if not shapes and not emitters:
         raise UserError(f"{source}: the scene is empty; add [[shapes]] or [[emitters]]")
+    layers = sorted({s.layer for s in shapes if s.layer is not None})
+    if layers != list(range(len(layers))):
+        raise UserError(f"{source}: [[shapes]] use layer = {layers}; number the input layers 0, 1, ... "
+                        "from the nearest without gaps (untagged shapes form the last layer)")
     return Scene(source=source, info=info, camera=camera, render=render, materials=materials,
                  shapes=shapes, emitters=emitters, psf={k: dict(v) for k, v in psf.items()},
                  precompute=dict(_table(data, "precompute", source, default={})))

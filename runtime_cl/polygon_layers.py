@@ -19,14 +19,23 @@ Re-weighting. Where a single image is the input, a layer has holes wherever near
 it; blurred, the hole darkens the layer around the nearer object's outline. Lee et al. [2008]
 normalise a layer by its accumulated splat weight; that would also harden the layer's genuine
 soft edges, so here the weight is that of the sites that *could* hold the layer: ``k = 1 - H``
-with ``H`` the coverage of the nearer layers' pixels blurred by the layer's largest radius (so
-``k > 0`` wherever one of the layer's own splats lands). The layer is scaled by
-``g = 1 / min(1, max(k, A))``: a hole is filled by the layer's own colours, full coverage is
-never exceeded, and a layer with nothing in front of it (or with its hidden part supplied, as
-in layered input) is left unchanged, ``g = 1``.
+with ``H`` the coverage of the nearer layers' pixels blurred by the layer's radius ``rho`` (the
+coverage-weighted mean ``|coc|`` of its pixels; one bin spans a narrow range). The layer is
+scaled by ``g = 1 / min(1, max(k, A, MIN_KNOWN))``: a hole is filled by the layer's own colours,
+full coverage is never exceeded, where less than ``MIN_KNOWN`` of the footprint is known the
+fill fades out smoothly, and a layer with nothing in front of it (or with its hidden part
+supplied, as in layered input) is left unchanged, ``g = 1``. What no splat of the layer
+reaches stays unknown (transparent): a single image cannot show what a wide foreground hides.
+
+Opacity. MHU21's integer polygons change shape in steps as the radius grows, so where
+neighbouring pixels of one surface use different polygons their splats do not sum to 1 (rings
+of ``A`` a little below or above 1); through such a ring the (often far brighter) layers behind
+would shine. A layer therefore hides what is behind it by at least ``E / k``, its own pixels'
+coverage blurred by the single radius ``rho`` (no steps) relative to the known sites:
+``alpha = min(1, max(g A, E / max(k, MIN_KNOWN)))``.
 
 Compositing. Back to front with "over" on premultiplied colours:
-``out = g C + (1 - min(1, g A)) out``. With one layer the result is the plain splat of
+``out = g C + (1 - alpha) out``. With one layer the result is the plain splat of
 :meth:`PolygonSplatter.render`; a layer with no live pixels changes nothing.
 
 Layered input (LDI-like: e.g. a foreground layer with alpha and the background rendered without
@@ -44,9 +53,9 @@ from .errors import InputError
 
 __all__ = ["PixelLayer", "layer_edges", "render_layers"]
 
-# Below this the known fraction (or coverage) can only be fixed-point noise: one of the layer's own
-# splats lands where at least 1 / area(largest polygon) of the sites is known, >> 1e-6 for r < 500.
-EMPTY = 1e-6
+# Least known fraction a hole fill trusts: with less known around it fades out instead of
+# blowing up a few stray splats (a hard cut-off would draw its outline through the layers in front).
+MIN_KNOWN = 0.1
 
 
 @dataclass(frozen=True)
@@ -156,7 +165,8 @@ def render_layers(splatter, layers, n_layers: int):
         Premultiplied radiance (C as the input's ``rgb``).
     info : dict
         ``edges`` (signed CoC, px), ``layers`` (per non-empty layer: ``index``, ``pixels``,
-        ``max_radius_px``, ``kernel_ms``, ``mean_weight`` of the re-weighting), ``kernel_ms``
+        ``radius_px`` (rho), ``max_radius_px``, ``kernel_ms``, ``coverage_gain``: the layer's
+        total coverage after the re-weighting over before, 1 without holes), ``kernel_ms``
         (event-profiled, all layers) and ``wall_ms`` (the whole call).
     """
     start = time.perf_counter()
@@ -170,17 +180,22 @@ def render_layers(splatter, layers, n_layers: int):
         members = [b == index for b in bins]
         if not any(m.any() for m in members):
             continue
-        colour, alpha, stats = _splat_layer(splatter, layers, members)
+        colour, alpha, sites, stats = _splat_layer(splatter, layers, members)
         nearer = sum(x.alpha * ((b >= 0) & (b < index)) for x, b in zip(layers, bins))
-        weight = np.ones((h, w), np.float32)
+        known = np.ones((h, w), np.float32)
         if np.any(nearer > 0):
-            hidden, hole = splatter.render(np.minimum(nearer, 1.0).astype(np.float32),
-                                           stats["max_radius_px"])
-            stats["kernel_ms"] += hole["kernel_ms"]
-            known = np.maximum(1.0 - hidden, alpha)
-            weight = np.where(known > EMPTY, 1.0 / np.clip(known, EMPTY, 1.0), 1.0).astype(np.float32)
-        out = colour * weight[..., None] + (1.0 - np.minimum(alpha * weight, 1.0))[..., None] * out
-        per_layer.append(dict(stats, index=index, mean_weight=float(weight.mean())))
+            hidden, info = splatter.render(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
+            stats["kernel_ms"] += info["kernel_ms"]
+            known = 1.0 - hidden
+        weight = 1.0 / np.clip(np.maximum(known, alpha), MIN_KNOWN, 1.0)
+        opacity = np.minimum(alpha * weight, 1.0)
+        if per_layer:                                                # something lies behind
+            own, info = splatter.render(np.minimum(sites, 1.0), stats["radius_px"])
+            stats["kernel_ms"] += info["kernel_ms"]
+            opacity = np.maximum(opacity, np.minimum(own / np.clip(known, MIN_KNOWN, 1.0), 1.0))
+        out = colour * weight[..., None] + (1.0 - opacity)[..., None] * out
+        gain = float(np.minimum(alpha * weight, 1.0).sum() / max(float(np.minimum(alpha, 1.0).sum()), 1e-30))
+        per_layer.append(dict(stats, index=index, coverage_gain=gain))
     info = {"edges": edges.tolist(), "layers": per_layer[::-1],
             "kernel_ms": sum(x["kernel_ms"] for x in per_layer),
             "wall_ms": (time.perf_counter() - start) * 1e3}
@@ -188,20 +203,20 @@ def render_layers(splatter, layers, n_layers: int):
 
 
 def _splat_layer(splatter, layers, members):
-    """Resolved premultiplied colour (H, W, C) and coverage (H, W) of one depth layer."""
+    """One depth layer: resolved premultiplied colour (H, W, C), coverage (H, W), the coverage of
+    its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, ``kernel_ms``)."""
     h, w, c = layers[0].rgb.shape
-    images, radii = [], []
-    for x, m in zip(layers, members):
-        if m.any():
-            images.append(np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None])
-            radii.append(np.where(m, np.abs(x.coc), 0.0).astype(np.float32))
-    bound = sum(float(np.abs(im).sum(dtype=np.float64)) for im in images)
-    canvas = splatter.canvas(h, w, c + 1, bound)
-    kernel_ms = 0.0
-    for im, r in zip(images, radii):
-        kernel_ms += splatter.splat(canvas, im, r)["splat_ms"]
+    parts = [(x, m) for x, m in zip(layers, members) if m.any()]
+    images = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None] for x, m in parts]
+    radii = [np.where(m, np.abs(x.coc), 0.0).astype(np.float32) for x, m in parts]
+    canvas = splatter.canvas(h, w, c + 1, sum(float(np.abs(im).sum(dtype=np.float64)) for im in images))
+    kernel_ms = sum(splatter.splat(canvas, im, r)["splat_ms"] for im, r in zip(images, radii))
     resolved, info = splatter.resolve(canvas)
     kernel_ms += info["prefix_ms"] + info["sum_ms"]
-    stats = {"pixels": int(sum(m.sum() for m in members)),
+    sites = sum(im[..., c] for im in images)
+    # rho weighs radii by coverage; a layer of pure light (zero alpha, e.g. the sky) by pixel
+    weights = [im[..., c] for im in images] if sites.any() else [m.astype(np.float32) for _, m in parts]
+    rho = sum(float((wt * r).sum()) for wt, r in zip(weights, radii)) / sum(float(wt.sum()) for wt in weights)
+    stats = {"pixels": int(sum(m.sum() for _, m in parts)), "radius_px": rho,
              "max_radius_px": float(max(r.max() for r in radii)), "kernel_ms": kernel_ms}
-    return resolved[..., :c], resolved[..., c], stats
+    return resolved[..., :c], resolved[..., c], sites.astype(np.float32), stats

@@ -43,24 +43,30 @@ def reference(layers, n, splatter):
             else np.zeros(x.coc.shape, int)
         bins.append(np.where(m, b, -1))
     h, w, c = layers[0].rgb.shape
-    out = np.zeros((h, w, c))
+    out, behind = np.zeros((h, w, c)), False
     for i in reversed(range(n)):
-        layer = np.zeros((h, w, c + 1))
-        radius = 0.0
+        layer, sites, radii = np.zeros((h, w, c + 1)), np.zeros((h, w)), []
         for x, b in zip(layers, bins):
             m = b == i
             if m.any():
                 img = np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None]
                 layer += dense(img, np.abs(x.coc), splatter)
-                radius = max(radius, float(np.abs(x.coc[m]).max()))
-        if not layer.any():
+                sites += x.alpha * m
+                radii += [(a, r) for a, r in zip(x.alpha[m], np.abs(x.coc[m]))]
+        if not radii:
             continue
+        a, r = np.array(radii).T
+        rho = (a * r).sum() / a.sum() if a.sum() > 0 else r.mean()
         colour, alpha = layer[..., :c], layer[..., c]
         nearer = np.minimum(sum(x.alpha * ((b >= 0) & (b < i)) for x, b in zip(layers, bins)), 1)
-        hidden = dense(nearer[..., None], np.full((h, w), radius), splatter)[..., 0]
-        known = np.maximum(1 - hidden, alpha)
-        g = np.where(known > 1e-6, 1 / np.clip(known, 1e-6, 1), 1) if nearer.any() else 1.0
-        out = colour * np.asarray(g)[..., None] + (1 - np.minimum(alpha * g, 1))[..., None] * out
+        known = 1 - dense(nearer[..., None], np.full((h, w), rho), splatter)[..., 0]
+        g = 1 / np.clip(np.maximum(known, alpha), 0.1, 1)
+        opacity = np.minimum(alpha * g, 1)
+        if behind:
+            own = dense(np.minimum(sites, 1)[..., None], np.full((h, w), rho), splatter)[..., 0]
+            opacity = np.maximum(opacity, np.minimum(own / np.clip(known, 0.1, 1), 1))
+        out = colour * g[..., None] + (1 - opacity)[..., None] * out
+        behind = True
     return out
 
 
@@ -108,7 +114,7 @@ def test_single_layer_is_todays_polygon_render(hexagon):
     got, info = render_layers(hexagon, img, 1)
     today, _ = hexagon.render(img.rgb, np.abs(img.coc))
     np.testing.assert_allclose(got, today, rtol=1e-6, atol=1e-7)
-    assert [x["mean_weight"] for x in info["layers"]] == [1.0]
+    assert [x["coverage_gain"] for x in info["layers"]] == [1.0]
 
 
 def test_in_focus_foreground_is_not_bled_over(hexagon):
@@ -122,6 +128,23 @@ def test_in_focus_foreground_is_not_bled_over(hexagon):
         np.testing.assert_allclose(layered[block], img.rgb[block], rtol=1e-6, atol=1e-6)
 
 
+def test_polygon_steps_do_not_let_the_background_through(hexagon):
+    """Radii across MHU21's polygon steps (1 px, 5-px triangle, 17-px hexagon): the splats of the
+    near surface do not sum to 1 everywhere, but its inside hides the background completely."""
+    rng = np.random.default_rng(4)
+    h, w = 30, 30
+    coc = np.full((h, w), 8.0, np.float32)
+    coc[6:24, 6:24] = rng.uniform(-1.6, 1.6, (18, 18))
+    near = rng.random((h, w, 3)).astype(np.float32)
+    inside = (slice(9, 21), slice(9, 21))
+    results = []
+    for glow in (0.0, 100.0):
+        rgb = np.where((coc > 4)[..., None], np.float32(glow), near)
+        out, _ = render_layers(hexagon, PixelLayer(rgb, np.ones((h, w), np.float32), coc), 3)
+        results.append(out[inside])
+    np.testing.assert_allclose(results[1], results[0], atol=1e-4)
+
+
 def test_hole_behind_an_in_focus_object_is_filled():
     """A uniform background blurred behind a sharp square: no dark rim around the square."""
     sp = PolygonSplatter(*shape("octagon"))
@@ -132,13 +155,14 @@ def test_hole_behind_an_in_focus_object_is_filled():
     rgb[15:25, 15:25] = 0.1
     img = PixelLayer(rgb, np.ones((h, w), np.float32), coc)
     one, _ = render_layers(sp, img, 1)
-    two, _ = render_layers(sp, img, 2)
     rim = np.zeros((h, w), bool)
     rim[10:30, 10:30] = True
     rim[15:25, 15:25] = False
     assert one[rim].min() < 0.8 * 0.8                                # today: darkened (and tinted)
+    two, info = render_layers(sp, img, 2)
     np.testing.assert_allclose(two[rim], np.broadcast_to(rgb[0, 0], (rim.sum(), 3)), atol=1e-5)
     np.testing.assert_allclose(two[15:25, 15:25], rgb[15:25, 15:25], atol=1e-6)
+    assert info["layers"][1]["coverage_gain"] > 1.01
 
 
 def test_defocused_foreground_reveals_layered_background(hexagon):

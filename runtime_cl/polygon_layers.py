@@ -135,7 +135,10 @@ def layer_edges(layers, n_layers: int) -> np.ndarray:
         none is live). Layer ``i`` holds ``edges[i] <= coc < edges[i + 1]``, the last one also
         its upper edge.
     """
-    layers, n = _check_layers(layers), _check_count(n_layers)
+    return _edges(_check_layers(layers), _check_count(n_layers))
+
+
+def _edges(layers: list[PixelLayer], n: int) -> np.ndarray:
     live = np.concatenate([x.coc[_live(x)].ravel() for x in layers])
     lo, hi = (float(live.min()), float(live.max())) if live.size else (0.0, 0.0)
     return np.linspace(lo, hi, n + 1)
@@ -171,7 +174,7 @@ def render_layers(splatter, layers, n_layers: int):
     """
     start = time.perf_counter()
     layers = _check_layers(layers)
-    edges = layer_edges(layers, n_layers)
+    edges = _edges(layers, _check_count(n_layers))
     bins = [_bins(x, edges) for x in layers]
     h, w, c = layers[0].rgb.shape
     out = np.zeros((h, w, c), np.float32)

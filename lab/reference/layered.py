@@ -78,19 +78,22 @@ def render_layers(scene: Scene, spp: int | None = None, pass_spp: int | None = N
                 / mi.ScalarVector2f(w, h)
             ray, _ = sensor.sample_ray(mi.Float(0.0), mi.Float(0.5), pos, mi.Point2f(0.5, 0.5))
             hits = [s.ray_intersect(ray) for s in peeled]
+            dr.eval(ray, [(si.t, si.p) for si in hits])             # traced once, shared by the layers
             for k, si in enumerate(hits):
                 hit = si.is_valid()
                 own = hit & (si.t < hits[k + 1].t) if k + 1 < len(hits) else mi.Bool(True)
                 start = dr.select(hit, si.t * (1.0 - BACKOFF), beyond)
                 restart = mi.RayDifferential3f(mi.Ray3f(ray.o + ray.d * start, ray.d))
-                sampler.seed(seed ^ (0x9E3779B9 * (k + 1) & 0xFFFFFFFF), w * h * n)
+                sampler.seed(int(np.random.SeedSequence([seed, k]).generate_state(1)[0]), w * h * n)
                 radiance, _, _ = integrator.sample(full, sampler, restart, None, own)
                 covered = own & hit
                 z = dr.dot(si.p - eye, axis)
                 parts = [dr.select(own, radiance[c], 0.0) for c in range(3)] + \
                         [dr.select(covered, 1.0, 0.0), dr.select(covered, z, 0.0)]
-                for c, part in enumerate(parts):
-                    sums[k, c] += np.asarray(dr.block_sum(mi.Float(part), n), np.float64)
+                reduced = [dr.block_sum(mi.Float(part), n) for part in parts]
+                dr.eval(*reduced)                                  # one kernel for all five sums
+                for c, part in enumerate(reduced):
+                    sums[k, c] += np.asarray(part, np.float64)
             bar.update(n)
     out = {}
     for k in range(len(groups)):

@@ -19,11 +19,13 @@ from lab.errors import UserError
 __all__ = ["Iris", "check_iris"]
 
 
-def check_iris(blades, rotation_deg, rounding, prefix: str = "aperture_") -> None:
-    """UserError unless the parameters describe an iris; ``prefix`` names the keys in messages."""
+def check_iris(blades, rotation_deg, rounding, prefix: str = "aperture_",
+               round_hint: str = "use aperture = 'circle' for a round one") -> None:
+    """UserError unless the parameters describe an iris; ``prefix`` names the keys in messages,
+    ``round_hint`` says how to ask for a round aperture where the keys are written."""
     if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or not 3 <= blades <= 64:
         raise UserError(f"{prefix}blades = {blades!r}: a polygonal iris needs an integer from 3 to 64 "
-                        "blades (real lenses have 5 to 9); a round iris is the circular aperture")
+                        f"blades (real lenses have 5 to 9); {round_hint}")
     if isinstance(rounding, bool) or not isinstance(rounding, (int, float)) or not 0.0 <= rounding <= 1.0:
         raise UserError(f"{prefix}rounding = {rounding!r}: must be a number in [0, 1] "
                         "(0 sharp corners, 1 a circle)")
@@ -51,7 +53,8 @@ class Iris:
     rounding: float = 0.0
 
     def __post_init__(self):
-        check_iris(self.blades, self.rotation_deg, self.rounding, prefix="")
+        check_iris(self.blades, self.rotation_deg, self.rounding, prefix="",
+                   round_hint="remove the aperture table for a round one")
 
     @property
     def point_symmetric(self) -> bool:

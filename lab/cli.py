@@ -18,6 +18,7 @@ typical use:
   splatlab render in.exr --db simple_lens.spdb --method spreadlets --out out.exr
   splatlab render moving.exr --db combined.spdb --out out.exr   motion.X, motion.Y channels in pixels
   splatlab render in.exr --method polygon --aperture hexagon --out out.exr   exact polygonal bokeh
+  splatlab render in.exr --method polygon --layers 8 --out out.exr   ... with occlusion (depth layers)
   splatlab bench runtime                         method timings and kernel throughput -> reports/bench/
   splatlab doctor                                what is installed, what is missing and how to fix it
 
@@ -122,9 +123,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="spreadlets: LSR18 Laplacian splatting; splat: dense PSF splatting; "
                         "filter: gathering with the PSF; polygon: exact flat polygonal bokeh (MHU21) "
                         "(default: spreadlets)")
-    p.add_argument("--aperture", default="hexagon", metavar="NAME",
+    p.add_argument("--aperture", metavar="NAME",
                    help="polygon: built-in shape (hexagon, octagon, dodecagon, hexadecagon, heart, "
-                        "clover, star; default hexagon)")
+                        "clover, star; default: the camera header's iris, else hexagon)")
+    p.add_argument("--layers", type=int, metavar="N",
+                   help="polygon: occlusion with N global depth layers (LSR18), from the EXR's "
+                        "layerN.* channels when it has them, else from its flat image")
     p.add_argument("--directions", type=int, default=2, metavar="M",
                    help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
     p.add_argument("--edges", type=int, metavar="N",

@@ -94,16 +94,28 @@ def cmd_reference(args) -> int:
 
 
 def _render_polygon(args) -> int:
+    from .config import from_table
     from .exr_io import write_rgb
+    from .optics.iris import Iris
     from .pipeline import read_input
-    from .polygon_aperture import polygon_aperture, render_polygon
+    from .polygon_aperture import iris_aperture, polygon_aperture, render_polygon
 
+    if args.layers is not None and args.layers < 1:
+        raise UserError(f"--layers {args.layers}: the number of depth layers must be >= 1 (1 splats "
+                        "everything into one layer, without occlusion), e.g. --layers 8")
     image = read_input(args.input, args.camera)
-    aperture = polygon_aperture(args.aperture, args.directions, args.edges)
-    rendered, info = render_polygon(image, aperture)
+    if args.aperture is None and "aperture" in image.camera:   # the camera's own iris
+        iris = from_table(Iris, image.camera["aperture"], f"{args.input} camera aperture")
+        aperture = iris_aperture(iris, args.directions, args.edges)
+    else:
+        aperture = polygon_aperture(args.aperture or "hexagon", args.directions, args.edges)
+    layered = args.layers is not None and bool(image.layers(str(args.input)))
+    rendered, info = render_polygon(image, aperture, args.layers, layered_input=layered)
     write_rgb(args.out, rendered)
+    layers = "" if args.layers is None else \
+        f", {len(info['layers'])} of {args.layers} depth layers used ({'layered' if layered else 'flat'} input)"
     print(f"{args.out}: polygon ({aperture.name}, {aperture.edges} edges, D m={aperture.directions_m}), "
-          f"radius <= {info['max_radius_px']:.1f} px, {info['kernel_ms']:.1f} ms kernels "
+          f"radius <= {info['max_radius_px']:.1f} px{layers}, {info['kernel_ms']:.1f} ms kernels "
           f"(+{info['table_s']:.2f} s radius table, {info['rectify_s']:.2f} s rectification)")
     return 0
 
@@ -111,6 +123,9 @@ def _render_polygon(args) -> int:
 def cmd_render(args) -> int:
     if args.method == "polygon":
         return _render_polygon(args)
+    if args.layers is not None:
+        raise UserError(f"--layers {args.layers}: depth layers are for --method polygon; drop --layers "
+                        f"with --method {args.method}")
     if args.db is None:
         raise UserError(f"--db: --method {args.method} needs a spreadlet database (splatlab precompute "
                         "MODEL --out FILE); only --method polygon works without one")

@@ -6,12 +6,16 @@ background at infinity) and optional extras (``motion.X``, ``motion.Y``: pixels 
 shutter, X right, Y up; ``lens.U``, ``layer0.R``, ...), plus the header string attribute
 ``splatlab.camera`` holding the camera as JSON. Reading validates all of it and raises
 :class:`~lab.errors.UserError` naming the file and the fix.
+
+Layers: ``layerN.R, .G, .B, .A, .Z`` for N = 0, 1, ... (nearest first), colour premultiplied by
+the layer's coverage A (:func:`image_layers`); the top-level R, G, B, A, Z stay the flat image.
 """
 from __future__ import annotations
 
 import json
 import math
 import os
+import re
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,12 +25,15 @@ import OpenEXR
 
 from runtime_cl.thin_lens import ThinLens
 
+from .config import from_table
 from .errors import UserError
+from .optics.iris import Iris
 
 CAMERA_ATTR = "splatlab.camera"
 FORMAT_ATTR = "splatlab.format"
 FORMAT = "labelled-pixels/1"
 CORE = ("R", "G", "B", "A", "Z")
+_LAYER = re.compile(r"layer(\d+)\.(.+)")
 
 
 @dataclass(frozen=True)
@@ -66,9 +73,68 @@ class LabelledImage:
     def height(self) -> int:
         return self.depth.shape[0]
 
+    def layers(self, source: str = "input") -> list[ImageLayer]:
+        """The ``layerN.<channel>`` layers, nearest first (empty when there are none); see
+        :func:`image_layers`."""
+        return image_layers(self.extra, source)
+
     @property
     def width(self) -> int:
         return self.depth.shape[1]
+
+
+@dataclass(frozen=True)
+class ImageLayer:
+    """One layer of a layered labelled image: channels ``layerN.R, .G, .B, .A, .Z``.
+
+    ``rgb`` (H, W, 3) is premultiplied by the coverage ``alpha`` (H, W); ``depth`` (H, W) is the
+    planar depth of what the layer holds (``inf`` where it holds nothing).
+    """
+
+    rgb: np.ndarray
+    alpha: np.ndarray
+    depth: np.ndarray
+
+
+def image_layers(channels: dict, source: str) -> list[ImageLayer]:
+    """The layers among ``channels`` (name -> (H, W)), checked; nearest (``layer0``) first.
+
+    Layers hold what a layer's objects show in front of all later layers' objects, e.g. layer0 a
+    foreground with alpha and layer1 the rest of the scene rendered without it.
+
+    Raises
+    ------
+    UserError
+        A ``layer...`` channel that is not ``layerN.R|G|B|A|Z``, numbers that are not 0..N-1, a
+        layer without all five channels, coverage outside [0, 1] or bad depth.
+    """
+    found: dict[int, dict] = {}
+    for name, data in channels.items():
+        if not name.startswith("layer"):
+            continue
+        m = _LAYER.fullmatch(name)
+        if m is None or m.group(2) not in CORE:
+            raise UserError(f"{source}: channel {name!r} is not a layer channel; layers are named "
+                            f"layerN.<channel> with a channel from {list(CORE)}, e.g. layer0.R")
+        found.setdefault(int(m.group(1)), {})[m.group(2)] = data
+    if found and sorted(found) != list(range(len(found))):
+        gaps = sorted(set(range(max(found) + 1)) - set(found))
+        raise UserError(f"{source}: layer channels for layers {sorted(found)} but not {gaps}; number the "
+                        "layers 0, 1, ... from the nearest without gaps")
+    layers = []
+    for i in range(len(found)):
+        missing = [f"layer{i}.{c}" for c in CORE if c not in found[i]]
+        if missing:
+            raise UserError(f"{source}: layer {i} lacks channel(s) {missing}; every layer needs "
+                            f"layer{i}.R, .G, .B, .A (coverage) and .Z (depth)")
+        ch = found[i]
+        alpha = ch["A"]
+        if not (np.all(alpha >= 0) and np.all(alpha <= 1)):   # NaN fails both
+            raise UserError(f"{source}: layer{i}.A has values outside [0, 1] (or NaN); the coverage of "
+                            "a layer must lie in [0, 1] (premultiply its colour by it)")
+        _check_depth(f"{source} layer{i}.Z", ch["Z"])
+        layers.append(ImageLayer(np.stack([ch[c] for c in "RGB"], axis=-1), alpha, ch["Z"]))
+    return layers
 
 
 def _check_shutter(data: dict, source: str):
@@ -88,9 +154,14 @@ def _check_pinhole(data: dict, source: str):
         raise UserError(f"{source}: fov_x_deg = {fov!r} must be a number of degrees in (0, 180)")
 
 
+def _check_thin(data: dict, source: str):
+    ThinLens.from_json(data, source)
+    if "aperture" in data:
+        from_table(Iris, data["aperture"], f"{source} aperture")
+
+
 # One validator per lens model (thick lenses register theirs here).
-CAMERA_VALIDATORS = {"thin": lambda data, source: ThinLens.from_json(data, source),
-                     "pinhole": _check_pinhole}
+CAMERA_VALIDATORS = {"thin": _check_thin, "pinhole": _check_pinhole}
 
 
 def validate_camera(data, source: str) -> dict:
@@ -250,4 +321,5 @@ def read_labelled(path, camera: dict | None = None) -> LabelledImage:
     rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
     alpha = channels.get("A", np.ones_like(z))
     extra = {k: v for k, v in channels.items() if k not in CORE}
+    image_layers(extra, str(path))
     return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=camera, extra=extra)

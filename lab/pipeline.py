@@ -25,6 +25,7 @@ from .scene import Scene, load_scene
 
 RENDER_SOURCES = ("lab/reference", "lab/scene.py", "lab/scene_objects.py", "lab/exr_io.py")
 TIMED_RUNS = 3
+DEPTH_LAYERS = 8   # global depth layers of the polygon passes (LSR18 section 6)
 
 
 def _render_hash(scene: Scene) -> str:
@@ -123,12 +124,49 @@ def run_method(renderer, image: LabelledImage, coords, method: str, runs: int = 
     return first, timing
 
 
+def run_polygon(plan: Plan, image: LabelledImage, runs: int = TIMED_RUNS, progress: bool = True) -> dict:
+    """The polygon passes (``polygon``, ``polygon_layers``, ``polygon_layered_input``) with the
+    camera header's iris: name -> (image, timing). Each is warmed up once (kernel builds, radius
+    table), then timed ``runs`` times; ``time_ms`` is the median wall time of a render call
+    (uploads, kernels, downloads and the layer compositing on the host)."""
+    from runtime_cl.thin_lens import ThinLens
+
+    from tqdm import tqdm
+
+    from .config import from_table
+    from .optics.iris import Iris
+    from .polygon_aperture import iris_aperture, render_polygon
+
+    ThinLens.from_json(image.camera, "input camera header")
+    aperture = iris_aperture(from_table(Iris, image.camera["aperture"], "input camera header aperture"))
+    settings = {"polygon": {}, "polygon_layers": {"layers": DEPTH_LAYERS},
+                "polygon_layered_input": {"layers": DEPTH_LAYERS, "layered_input": True}}
+    out = {}
+    for name in tqdm(plan.runtime_passes, desc="runtime", unit="method", disable=not progress):
+        first, warm = render_polygon(image, aperture, **settings[name])
+        samples = [render_polygon(image, aperture, **settings[name])[1] for _ in range(runs)]
+        wall = float(np.median([x["wall_ms"] for x in samples]))
+        timing = {"time_ms": wall, "kernel_ms": float(np.median([x["kernel_ms"] for x in samples])),
+                  "compile_ms": max(0.0, warm["wall_ms"] - wall), "runs": runs,
+                  "aperture": {"edges": aperture.edges, "rectify_s": round(aperture.rectify_s, 3),
+                               "table_s": round(warm["table_s"], 3)},
+                  "counts": {"pixels": image.width * image.height,
+                             "max_radius_px": round(warm["max_radius_px"], 2)}}
+        if "layers" in settings[name]:
+            timing["counts"].update(depth_layers=DEPTH_LAYERS, used_layers=len(warm["layers"]),
+                                    input_layers=len(image.layers()) if name.endswith("input") else 1)
+        out[name] = (first, timing)
+    return out
+
+
 def run_runtime(plan: Plan, image: LabelledImage, databases: dict, runs: int = TIMED_RUNS,
                 progress: bool = True) -> dict:
     """Every runtime pass of the plan on ``image``: name -> (image, timing)."""
     if plan.runtime_passes == ("identity",):
         return {"identity": (image.rgb, {"time_ms": 0.0, "kernel_ms": 0.0, "integrate_ms": 0.0,
                                          "transfer_ms": 0.0, "compile_ms": 0.0, "runs": 0})}
+    if plan.runtime_passes[0] == "polygon":
+        return run_polygon(plan, image, runs, progress)
     from runtime_cl.psf_coords import psf_coords
     from runtime_cl.render import Renderer
     from runtime_cl.thin_lens import ThinLens

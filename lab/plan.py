@@ -1,8 +1,9 @@
 """Which effects a scene calls for, and so what to precompute, render and run (``splatlab plan``).
 
 Each camera model registers a rule that fills in its part of the plan; effects the scene files
-cannot express yet (motion, media, glass, shaped apertures) are listed as skipped with the reason,
-so a plan always says what it will *not* do.
+cannot express yet (motion, media, glass) are listed as skipped with the reason, so a plan always
+says what it will *not* do. A thin lens with a polygonal iris runs MHU21's exact polygon splatting
+(single layer, depth layers, layered input) against a Mitsuba reference through that iris.
 """
 from __future__ import annotations
 
@@ -40,7 +41,8 @@ class Plan:
     inputs : tuple of Step
         Labelled-pixel inputs for the runtime.
     runtime_passes : tuple of str
-        Runtime passes in order, e.g. ``("spreadlets", "splat", "filter")`` or ``("identity",)``.
+        Runtime passes in order, e.g. ``("spreadlets", "splat", "filter")``, ``("polygon",
+        "polygon_layers", "polygon_layered_input")`` or ``("identity",)``.
     skipped : tuple of Step
         What is not done, with the reason.
     """
@@ -70,18 +72,50 @@ class Plan:
         return "\n".join(lines)
 
 
-def _thin(scene: Scene) -> dict:
+def _dof(scene: Scene) -> str:
     lens = scene.camera.thin_lens()
+    return (f"thin ({lens.focal_length_mm:g} mm f/{lens.f_number:.3g}, "
+            f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)")
+
+
+def _thin(scene: Scene) -> dict:
+    if scene.camera.iris() is not None:
+        return _thin_iris(scene)
     r = scene.render
     return {
-        "dof": (f"thin ({lens.focal_length_mm:g} mm f/{lens.f_number:.3g}, "
-                f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)"),
+        "dof": _dof(scene),
         "aperture": "circle",
         "psf_models": ("simple_lens",),
         "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens, "
                                                 f"{r.reference_spp} spp, max depth {r.max_depth}"),),
         "runtime_passes": ("spreadlets", "splat", "filter"),
         "skipped": (),
+    }
+
+
+def _thin_iris(scene: Scene) -> dict:
+    iris, r = scene.camera.iris(), scene.render
+    passes = ("polygon", "polygon_layers") + (("polygon_layered_input",) if scene.input_layers() else ())
+    skipped = [Step("PSF precompute and sparsify", "MHU21's flat polygon kernel is exact: no PSF database"),
+               Step("spreadlets, splat, filter", "their database traces the round aperture; the iris "
+                                                 "runs through the polygon passes")]
+    if not iris.point_symmetric:
+        skipped.append(Step("180-degree turn of the bokeh in front of the focus plane",
+                            f"the polygon runtime draws the upright iris everywhere ({iris.blades} blades "
+                            "are not point-symmetric)"))
+    if not scene.input_layers():
+        skipped.append(Step("polygon_layered_input", "no [[shapes]] has a layer key, so there is no "
+                                                     "layered input"))
+    return {
+        "dof": _dof(scene),
+        "aperture": (f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, "
+                     f"rounding {iris.rounding:g})"),
+        "psf_models": (),
+        "references": (Step("mitsuba_polygon_lens", f"Mitsuba path trace through the thin lens with the "
+                                                    f"{iris.blades}-blade iris (lab.reference.polygon_lens), "
+                                                    f"{r.reference_spp} spp, max depth {r.max_depth}"),),
+        "runtime_passes": passes,
+        "skipped": tuple(skipped),
     }
 
 
@@ -133,6 +167,12 @@ def make_plan(scene: Scene) -> Plan:
                "aperture": rule["aperture"]}
     inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
                                        "centres, camera in the EXR header"),)
+    layers = scene.input_layers()
+    if layers:
+        inputs += (Step("layered_labelled", f"layer0..{len(layers) - 1}.R,G,B,A,Z ({r.input_spp} spp): "
+                                            "the [[shapes]] layer keys, untagged shapes and sky last"),)
+        if not any(p.startswith("polygon") for p in rule["runtime_passes"]):
+            skipped.append(Step("layered input in the runtime", "only the polygon passes read layers"))
     return Plan(scene=scene.name, source=scene.source, resolution=scene.info.resolution,
                 effects=effects, psf_models=rule["psf_models"], references=rule["references"],
                 inputs=inputs, runtime_passes=rule["runtime_passes"], skipped=tuple(skipped))

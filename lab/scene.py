@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from runtime_cl.thin_lens import ThinLens
 
 from .config import from_table, to_table
 from .errors import UserError
+from .optics.iris import Iris
 from .scene_objects import Emitter, Material, Shape, parse_material, parse_shape, strip_none
 
 Vec3 = tuple[float, float, float]
@@ -62,6 +64,10 @@ class Camera:
         Sensor width (default 36 mm); the image width spans it.
     fov_deg : float, optional
         Pinhole only: horizontal field of view in degrees (0 < fov < 180).
+    aperture : dict, optional
+        Thin lens only: a polygonal iris instead of the round aperture,
+        ``{ blades = 6, rotation_deg = 0, rounding = 0 }`` (:class:`lab.optics.iris.Iris`); its
+        circumradius is the aperture radius f / (2 N).
     """
 
     model: str
@@ -74,6 +80,7 @@ class Camera:
     focus_distance_m: float | None = None
     sensor_width_mm: float = 36.0
     fov_deg: float | None = None
+    aperture: typing.Any = None
 
     def __post_init__(self):
         if self.model not in CAMERA_MODELS:
@@ -93,6 +100,14 @@ class Camera:
             raise UserError(f"aperture_radius_mm = {self.aperture_radius_mm!r}: the aperture radius "
                             "must be > 0 mm (use model = 'pinhole' for an all-sharp image)")
         (self._check_thin if self.model == "thin" else self._check_pinhole)()
+        self.iris()  # validates the aperture table
+
+    def iris(self) -> Iris | None:
+        """The polygonal iris of ``aperture``, ``None`` for a round aperture (or a pinhole)."""
+        if self.aperture is not None and not isinstance(self.aperture, dict):
+            raise UserError(f"aperture = {self.aperture!r}: write the iris as a table, e.g. aperture = "
+                            "{ blades = 6, rotation_deg = 0 }, or remove it for a round aperture")
+        return None if self.aperture is None else from_table(Iris, self.aperture, "aperture")
 
     def _check_thin(self):
         if self.focal_length_mm is None or self.focus_distance_m is None:
@@ -109,7 +124,7 @@ class Camera:
                             f"{self.focal_length_mm / 1000.0} m")
 
     def _check_pinhole(self):
-        thin_only = [k for k in ("f_number", "aperture_radius_mm", "focus_distance_m")
+        thin_only = [k for k in ("f_number", "aperture_radius_mm", "focus_distance_m", "aperture")
                      if getattr(self, k) is not None]
         if thin_only:
             raise UserError(f"{thin_only} describe a lens aperture; a pinhole has none: remove them "
@@ -148,6 +163,8 @@ class Camera:
         """The ``splatlab.camera`` EXR header contents (DESIGN.md contract)."""
         lens = self.thin_lens()
         data = lens.to_json() if lens is not None else {"lens": "pinhole", "fov_x_deg": self.fov_x_deg()}
+        if self.aperture is not None:
+            data["aperture"] = self.iris().to_json()
         data["shutter"] = [0.0, 1.0]
         return data
 
@@ -194,6 +211,15 @@ class Scene:
     @property
     def height(self) -> int:
         return self.info.resolution[1]
+
+    def input_layers(self) -> list[list[int]]:
+        """Shape indices per layer of the layered labelled input, nearest first; empty when no
+        shape has a ``layer`` key. The last layer holds the shapes without one (and the sky)."""
+        tagged = sorted({s.layer for s in self.shapes if s.layer is not None})
+        if not tagged:
+            return []
+        return [[i for i, s in enumerate(self.shapes) if s.layer == k] for k in tagged] + \
+            [[i for i, s in enumerate(self.shapes) if s.layer is None]]
 
     def to_dict(self) -> dict:
         """Canonical, JSON-serialisable contents (no file name; ``None`` dropped) for hashing.
@@ -254,6 +280,10 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
             raise UserError(f"{source}: psf.{model} must be a [psf.{model}] table, got {table!r}")
     if not shapes and not emitters:
         raise UserError(f"{source}: the scene is empty; add [[shapes]] or [[emitters]]")
+    layers = sorted({s.layer for s in shapes if s.layer is not None})
+    if layers != list(range(len(layers))):
+        raise UserError(f"{source}: [[shapes]] use layer = {layers}; number the input layers 0, 1, ... "
+                        "from the nearest without gaps (untagged shapes form the last layer)")
     return Scene(source=source, info=info, camera=camera, render=render, materials=materials,
                  shapes=shapes, emitters=emitters, psf={k: dict(v) for k, v in psf.items()},
                  precompute=dict(_table(data, "precompute", source, default={})))

@@ -122,6 +122,8 @@ class Shape:
     """``[[shapes]]``: a canonical shape, its placement, material and optional area light.
 
     ``material`` may be omitted only for a pure light (``emitter`` given): it is then black.
+    ``layer`` (0 = nearest) puts the shape into that layer of the layered labelled input; shapes
+    without one form the last layer with the environment (:meth:`lab.scene.Scene.input_layers`).
     """
 
     type: str
@@ -132,8 +134,11 @@ class Shape:
     rotate: Vec3 | None = None
     to_world: tuple[tuple[float, float, float, float], ...] | None = None
     emitter: AreaLight | None = None
+    layer: int | None = None
 
     def __post_init__(self):
+        if self.layer is not None and self.layer < 0:
+            raise UserError(f"layer = {self.layer}: input layers are numbered from 0 (the nearest)")
         if self.type not in SHAPE_TYPES:
             raise UserError(f"type = {self.type!r} is not a shape; use one of {list(SHAPE_TYPES)}")
         if self.material is None and self.emitter is None:

@@ -89,10 +89,15 @@ class ThinLens:
 
     @classmethod
     def from_json(cls, data: dict, source: str = "camera") -> "ThinLens":
-        """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
+        """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors.
+
+        An ``aperture`` entry (a polygonal iris, ``{"blades": 6, ...}``) does not change the CoC,
+        which is the iris's circumradius; the polygon path reads it.
+        """
         if data.get("lens") != "thin":
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs 'thin'")
-        known = {"lens", "focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm", "shutter"}
+        known = {"lens", "focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm", "shutter",
+                 "aperture"}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")

@@ -25,6 +25,7 @@ import numpy as np
 from drjit.llvm import Array2f
 
 from lab.errors import UserError
+from lab.optics.iris import check_iris
 from lab.registry import Registry
 
 __all__ = ["Aperture", "CircleAperture", "PolygonAperture", "register_aperture", "get_aperture",
@@ -117,17 +118,7 @@ class PolygonAperture(Aperture):
     rounding: float = 0.0
 
     def __post_init__(self):
-        b = self.blades
-        if isinstance(b, bool) or not isinstance(b, (int, np.integer)) or not 3 <= b <= 64:
-            raise UserError(f"aperture_blades = {b!r}: a polygonal iris needs an integer from 3 to 64 "
-                            "blades (real lenses have 5 to 9); use aperture = 'circle' for a round one")
-        r = self.rounding
-        if isinstance(r, bool) or not isinstance(r, (int, float)) or not (0.0 <= r <= 1.0):
-            raise UserError(f"aperture_rounding = {r!r}: must be a number in [0, 1] "
-                            "(0 sharp corners, 1 a circle)")
-        a = self.rotation_deg
-        if isinstance(a, bool) or not isinstance(a, (int, float)) or not math.isfinite(a):
-            raise UserError(f"aperture_rotation_deg = {a!r}: must be a finite angle in degrees")
+        check_iris(self.blades, self.rotation_deg, self.rounding)   # shared with scene cameras
 
     # Geometry of one wedge, the region between the rays through two neighbouring corners,
     # in a frame whose +x axis is the wedge's edge normal: the inner polygon's triangle

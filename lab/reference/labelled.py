@@ -13,6 +13,7 @@ import numpy as np
 from ..exr_io import LabelledImage
 from ..scene import Scene
 from .backend import mitsuba
+from .layered import render_layers
 from .render import load, render_passes
 
 
@@ -66,7 +67,9 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
     -------
     LabelledImage
         ``camera`` is the scene camera's JSON (a thin lens for a DoF scene: the lens the runtime
-        must simulate), although the pixels themselves are pinhole.
+        must simulate), although the pixels themselves are pinhole. When shapes carry a
+        ``layer`` key, ``extra`` also holds the layered input's ``layerN.*`` channels
+        (:mod:`lab.reference.layered`, same spp).
     """
     mi_scene = load(scene, "pinhole")
     spp = scene.render.input_spp if spp is None else spp
@@ -74,4 +77,5 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
                         desc=f"input {scene.name}")
     z = planar_depth(scene, mi_scene)
     alpha = np.isfinite(z).astype(np.float32)
-    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=scene.camera.camera_json())
+    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=scene.camera.camera_json(),
+                         extra=render_layers(scene, spp, pass_spp, progress))

@@ -1,8 +1,8 @@
 """Scene dataclasses -> one Mitsuba scene dict, shared by the reference and the pinhole input.
 
 Both renders see the same objects, lights and view (look-at frame, horizontal field of view);
-only the sensor differs: ``thinlens`` (aperture radius f / 2N, planar focus distance) or
-``perspective``. The box pixel filter makes each pixel the exact integral over its own area, the
+only the sensor differs: ``thinlens`` (aperture radius f / 2N, planar focus distance), the same
+lens with a polygonal iris (:mod:`lab.reference.polygon_lens`) or ``perspective``. The box pixel filter makes each pixel the exact integral over its own area, the
 same footprint for the reference and the input.
 """
 from __future__ import annotations
@@ -72,10 +72,16 @@ def sensor_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
                  "pixel_format": "rgb", "component_format": "float32", "rfilter": {"type": "box"}},
         "sampler": {"type": "independent", "sample_count": int(spp)},
     }
-    lens = cam.thin_lens()
+    lens, iris = cam.thin_lens(), cam.iris()
     if sensor == "scene" and lens is not None:
         out.update(type="thinlens", aperture_radius=lens.aperture_radius_m,
                    focus_distance=lens.focus_distance_m)
+        if iris is not None:
+            from .polygon_lens import register
+
+            del out["fov_axis"]   # the plugin's fov is horizontal
+            out.update(type=register(), blades=iris.blades, rotation_deg=iris.rotation_deg,
+                       rounding=iris.rounding)
     return out
 
 

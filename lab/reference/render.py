@@ -14,7 +14,7 @@ from .backend import mitsuba
 from .mitsuba_scene import scene_dict
 
 MAX_SAMPLES_PER_PASS = 1 << 24  # 16 spp at 1024^2
-STREAMS = {"reference": 0, "input": 1}
+STREAMS = {"reference": 0, "input": 1, "layers": 2}
 
 
 def pass_seeds(seed: int, stream: str, n_passes: int) -> list[int]:
@@ -24,8 +24,8 @@ def pass_seeds(seed: int, stream: str, n_passes: int) -> list[int]:
     ----------
     seed : int
         The scene's ``[render] seed``.
-    stream : {"reference", "input"}
-        Separate streams so the reference and the input never share noise.
+    stream : {"reference", "input", "layers"}
+        Separate streams so the reference and the inputs never share noise.
     n_passes : int
     """
     states = np.random.SeedSequence([seed, STREAMS[stream]]).generate_state(n_passes)

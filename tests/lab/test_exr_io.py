@@ -134,3 +134,60 @@ def test_foreign_format_version(tmp_path):
             {"splatlab.camera": json.dumps(THIN), "splatlab.format": "labelled-pixels/9"})
     with pytest.raises(UserError, match="labelled-pixels/9"):
         read_labelled(tmp_path / "v.exr")
+
+
+def layered(h=5, w=6, n=2):
+    """A labelled image with ``n`` layers: layer 0 a half-covered foreground, the last complete."""
+    rng = np.random.default_rng(n)
+    base = image(h, w)
+    extra = {}
+    for i in range(n):
+        alpha = np.ones((h, w), np.float32) if i == n - 1 else (rng.random((h, w)) > 0.5).astype(np.float32)
+        extra.update({f"layer{i}.R": rng.random((h, w), dtype=np.float32) * alpha,
+                      f"layer{i}.G": rng.random((h, w), dtype=np.float32) * alpha,
+                      f"layer{i}.B": rng.random((h, w), dtype=np.float32) * alpha, f"layer{i}.A": alpha,
+                      f"layer{i}.Z": np.where(alpha > 0, 1.0 + 5 * i, np.inf).astype(np.float32)})
+    return LabelledImage(base.rgb, base.alpha, base.depth, base.camera, extra)
+
+
+def test_layers_round_trip(tmp_path):
+    im = layered(n=3)
+    write_labelled(tmp_path / "l.exr", im)
+    back = read_labelled(tmp_path / "l.exr")
+    layers = back.layers()
+    assert len(layers) == 3
+    np.testing.assert_array_equal(layers[1].rgb[..., 2], im.extra["layer1.B"])
+    np.testing.assert_array_equal(layers[0].alpha, im.extra["layer0.A"])
+    assert np.isinf(layers[0].depth[layers[0].alpha == 0]).all()
+    assert image().layers() == []
+
+
+@pytest.mark.parametrize("change,needles", [
+    (lambda ch: ch.pop("layer1.Z"), ["layer 1 lacks", "'layer1.Z'", "layer1.R, .G, .B, .A"]),
+    (lambda ch: [ch.update({k.replace("layer1", "layer2"): ch.pop(k)}) for k in list(ch) if k.startswith("layer1")],
+     ["layers [0, 2]", "not [1]", "without gaps"]),
+    (lambda ch: ch.update({"layer0.X": ch["layer0.R"]}), ["'layer0.X'", "layerN.<channel>", "layer0.R"]),
+    (lambda ch: ch.update({"layerA.R": ch["layer0.R"]}), ["'layerA.R'", "layerN.<channel>"]),
+    (lambda ch: ch["layer0.A"].__setitem__((0, 0), 1.5), ["layer0.A", "[0, 1]"]),
+    (lambda ch: ch["layer1.Z"].__setitem__((0, 0), np.nan), ["layer1.Z", "NaN or non-positive"]),
+])
+def test_bad_layers_name_the_channel(tmp_path, change, needles):
+    im = layered()
+    channels = {"R": im.rgb[..., 0], "G": im.rgb[..., 1], "B": im.rgb[..., 2], "A": im.alpha, "Z": im.depth,
+                **{k: v.copy() for k, v in im.extra.items()}}
+    change(channels)
+    raw_exr(tmp_path / "bad.exr", channels, {"splatlab.camera": json.dumps(THIN)})
+    with pytest.raises(UserError) as exc:
+        read_labelled(tmp_path / "bad.exr")
+    msg = str(exc.value)
+    assert "bad.exr" in msg and len(msg.splitlines()) == 1
+    for needle in needles:
+        assert needle in msg, msg
+
+
+def test_header_iris_is_checked(tmp_path):
+    bad = dict(THIN, aperture={"blades": 6, "rotaton_deg": 5})
+    raw_exr(tmp_path / "iris.exr", {"R": image().rgb[..., 0], "G": image().rgb[..., 1], "B": image().rgb[..., 2],
+                                    "Z": image().depth}, {"splatlab.camera": json.dumps(bad)})
+    with pytest.raises(UserError, match=r"iris.exr header 'splatlab.camera' aperture: unknown key\(s\) \['rotaton_deg'\]"):
+        read_labelled(tmp_path / "iris.exr")

@@ -53,3 +53,26 @@ def test_describe_lists_everything():
     assert any("mitsuba_thinlens" in line and "512 spp" in line for line in lines)
     assert any(line.startswith("  motion blur:") for line in lines)
     assert "PSF models to precompute: none" in make_plan(scene(PINHOLE)).describe()
+
+
+def test_polygon_iris_plan():
+    plan = make_plan(scene({**THIN, "aperture": {"blades": 5, "rotation_deg": 10}}))
+    assert plan.effects["aperture"] == "polygon (5 blades, rotation 10 deg, rounding 0)"
+    assert plan.psf_models == ()
+    assert [r.name for r in plan.references] == ["mitsuba_polygon_lens"] and "5-blade" in plan.references[0].detail
+    assert plan.runtime_passes == ("polygon", "polygon_layers")
+    assert [i.name for i in plan.inputs] == ["pinhole_labelled"]
+    reasons = {s.name: s.detail for s in plan.skipped}
+    assert "exact" in reasons["PSF precompute and sparsify"]
+    assert "round aperture" in reasons["spreadlets, splat, filter"]
+    assert "not point-symmetric" in reasons["180-degree turn of the bokeh in front of the focus plane"]
+    assert "layer key" in reasons["polygon_layered_input"]
+    assert "polygonal bokeh (MHU21)" not in reasons
+
+
+def test_occlusion_scene_plan_uses_its_layers():
+    plan = make_plan(load_scene(SCENES / "occlusion.toml"))
+    assert plan.runtime_passes == ("polygon", "polygon_layers", "polygon_layered_input")
+    assert [i.name for i in plan.inputs] == ["pinhole_labelled", "layered_labelled"]
+    assert "layer0..2" in plan.inputs[1].detail
+    assert not any("180-degree" in s.name for s in plan.skipped)     # 6 blades: point-symmetric

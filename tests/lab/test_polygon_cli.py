@@ -62,3 +62,55 @@ def test_bench_polygon_quick(monkeypatch, tmp_path):
     assert data["b_methods"]["rows"][0]["dxdy"]["bit_identical_to_polygon"]
     for shape in data["c_uniform_vs_fft"].values():
         assert all(row["max_abs_diff_vs_fft"] < 1e-5 for row in shape["rows"])
+
+
+@pytest.fixture(scope="module")
+def layered_exr(tmp_path_factory):
+    """A camera with a 6-blade iris; layer 0 a defocused foreground square, layer 1 the background."""
+    rng = np.random.default_rng(1)
+    h, w = 24, 40
+    fg = np.zeros((h, w), np.float32)
+    fg[6:18, 8:20] = 1.0
+    bg_rgb = rng.random((h, w, 3)).astype(np.float32)
+    fg_rgb = np.float32([0.9, 0.1, 0.1]) * fg[..., None]
+    extra = {"layer0.R": fg_rgb[..., 0], "layer0.G": fg_rgb[..., 1], "layer0.B": fg_rgb[..., 2], "layer0.A": fg,
+             "layer0.Z": np.where(fg > 0, 0.2, np.inf).astype(np.float32),
+             "layer1.R": bg_rgb[..., 0], "layer1.G": bg_rgb[..., 1], "layer1.B": bg_rgb[..., 2],
+             "layer1.A": np.ones((h, w), np.float32), "layer1.Z": np.full((h, w), 0.25, np.float32)}
+    flat = fg_rgb + (1 - fg[..., None]) * bg_rgb
+    image = LabelledImage(rgb=flat, alpha=np.ones((h, w), np.float32),
+                          depth=np.where(fg > 0, 0.2, 0.25).astype(np.float32),
+                          camera=dict(CAMERA, aperture={"blades": 6, "rotation_deg": 0.0, "rounding": 0.0}),
+                          extra=extra)
+    path = tmp_path_factory.mktemp("layered") / "layered.exr"
+    write_labelled(path, image)
+    return path, image
+
+
+def test_render_layers_uses_the_layered_input_and_the_header_iris(layered_exr, tmp_path, capsys):
+    from lab.optics.iris import Iris
+    from lab.polygon_aperture import iris_aperture, render_polygon
+
+    path, image = layered_exr
+    out = tmp_path / "out.exr"
+    assert main(["render", str(path), "--method", "polygon", "--layers", "3", "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "polygon (iris6" in said and "of 3 depth layers used (layered input)" in said
+    want, info = render_polygon(image, iris_aperture(Iris(6)), 3, layered_input=True)
+    np.testing.assert_array_equal(read_rgb(out), want)
+    assert [x["index"] for x in info["layers"]] == [0, 2]           # foreground and background only
+    flat, _ = render_polygon(image, iris_aperture(Iris(6)), 3)
+    assert np.abs(flat - want).max() > 0.05                           # the layers matter
+    assert main(["render", str(path), "--method", "polygon", "--out", str(out)]) == 0
+    assert "depth layers" not in capsys.readouterr().out
+
+
+def test_render_layers_errors_name_the_option(layered_exr, tmp_path, capsys):
+    path, _ = layered_exr
+    out = str(tmp_path / "x.exr")
+    assert main(["render", str(path), "--method", "polygon", "--layers", "0", "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert "--layers 0" in err and ">= 1" in err and len(err.splitlines()) == 1
+    assert main(["render", str(path), "--method", "splat", "--layers", "2", "--out", out]) == 2
+    assert "--layers 2: depth layers are for --method polygon" in capsys.readouterr().err
+    assert not (tmp_path / "x.exr").exists()

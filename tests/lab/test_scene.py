@@ -201,3 +201,45 @@ def test_shipped_scenes_load(name):
     s = load_scene(SCENES / name)
     assert s.camera.model == "thin"
     assert "simple_lens" in s.psf or s.psf == {}
+
+
+IRIS = 'focus_distance_m = 2.5\naperture = { blades = 6, rotation_deg = 15 }'
+
+
+def test_camera_iris_and_its_header(tmp_path):
+    cam = load_scene(write(tmp_path, edit("focus_distance_m = 2.5", IRIS))).camera
+    assert (cam.iris().blades, cam.iris().rotation_deg, cam.iris().rounding) == (6, 15.0, 0.0)
+    data = json.loads(json.dumps(cam.camera_json()))
+    assert data["aperture"] == {"blades": 6, "rotation_deg": 15.0, "rounding": 0.0}
+    assert ThinLens.from_json(data) == cam.thin_lens()      # the iris does not change the CoC
+    assert load_scene(write(tmp_path, BASE, "round.toml")).camera.iris() is None
+
+
+@pytest.mark.parametrize("new,needles", [
+    ('aperture = { blade = 6 }', ["[camera]", "aperture", "'blade'", "known keys", "'blades'"]),
+    ('aperture = { blades = 2 }', ["[camera]", "aperture", "blades = 2", "3 to 64"]),
+    ('aperture = { blades = 6, rounding = 1.5 }', ["rounding = 1.5", "[0, 1]"]),
+    ('aperture = "hexagon"', ["aperture = 'hexagon'", "{ blades = 6", "remove it"]),
+])
+def test_camera_iris_typos_say_what_to_fix(tmp_path, new, needles):
+    msg = error(tmp_path, edit("focus_distance_m = 2.5", f"focus_distance_m = 2.5\n{new}"))
+    assert "s.toml" in msg and len(msg.splitlines()) == 1
+    for needle in needles:
+        assert needle in msg, msg
+
+
+def test_pinhole_has_no_iris(tmp_path):
+    text = edit("f_number = 2.0\nfocus_distance_m = 2.5", "aperture = { blades = 6 }").replace('"thin"', '"pinhole"')
+    msg = error(tmp_path, text)
+    assert "'aperture'" in msg and "pinhole has none" in msg
+
+
+def test_shape_layers(tmp_path):
+    tagged = edit('type = "sphere"', 'type = "sphere"\nlayer = 0')
+    s = load_scene(write(tmp_path, tagged))
+    assert s.input_layers() == [[1], [0]] and s.shapes[1].layer == 0
+    assert load_scene(write(tmp_path, BASE, "flat.toml")).input_layers() == []
+    assert "layer" not in json.dumps(load_scene(write(tmp_path, BASE, "flat.toml")).to_dict())
+    msg = error(tmp_path, edit('type = "sphere"', 'type = "sphere"\nlayer = 2'))
+    assert "layer = [2]" in msg and "without gaps" in msg
+    assert "numbered from 0" in error(tmp_path, edit('type = "sphere"', 'type = "sphere"\nlayer = -1'))

@@ -97,3 +97,19 @@ def test_registry_and_parameters():
 def test_bad_parameters_are_user_errors(params, match):
     with pytest.raises(UserError, match=match):
         make_aperture("polygon", **params)
+
+
+@pytest.mark.parametrize("blades,rotation,rounding", [(6, 0.0, 0.0), (5, 10.0, 0.0), (7, -20.0, 0.3), (4, 0.0, 1.0)])
+def test_iris_outline_is_the_sampled_shape(blades, rotation, rounding):
+    """lab.optics.iris (numpy, scene files and the polygon runtime) describes the same shape as the
+    Dr.Jit sampler: its outline lies on the sampler's boundary."""
+    from lab.optics.iris import Iris
+
+    v = Iris(blades, rotation, rounding).outline()
+    ap = PolygonAperture(blades=blades, rotation_deg=rotation, rounding=rounding)
+    assert ap.contains(*(0.999 * v).T).all() and not ap.contains(*(1.001 * v).T).any()
+    corners = np.arctan2(v[:, 1], v[:, 0])
+    if rounding == 0:
+        assert len(v) == blades
+        np.testing.assert_allclose(np.linalg.norm(v, axis=1), 1.0)
+        assert np.degrees(corners[0]) == pytest.approx(90 + rotation)

@@ -28,11 +28,6 @@ typedef float4 pix_t;
 #endif
 
 #if ROTATE
-#if OC == 1
-#define TO_PIX(v) ((v).x)
-#else
-#define TO_PIX(v) (v)
-#endif
 
 // out(x, y) with the PSF of radius r at psf turned by cs (rotate.cl; the energy scale comes
 // from the whole turned PSF, inside the image or not); n counts the turned PSF's pixels (in

@@ -11,6 +11,13 @@
 // integer offsets with no rounding anywhere.
 // Build options: DC (database channels) as in splat.cl.
 
+// a float4 accumulator as the output pixel type (OC: output channels, a build option)
+#if OC == 1
+#define TO_PIX(v) ((v).x)
+#else
+#define TO_PIX(v) (v)
+#endif
+
 inline float2 rotation_cs(const float angle) {
     const float a = fmod(angle, 2.0f * M_PI_F);  // exact; |a| < 2 pi keeps the quarter index small
     const float q = rint(a * M_2_PI_F);

@@ -119,11 +119,6 @@ inline void splat_dense(__global pix_t *dst, const int buf_w, const pix_t *run_c
 }
 
 #if ROTATE
-#if OC == 1
-#define TO_PIX(v) ((v).x)
-#else
-#define TO_PIX(v) (v)
-#endif
 
 // Spreadlets j0 .. j1 - 1 turned by cs times the colours of a run of n pixels; lap: the tile
 // position of the run's first pixel. A quarter turn moves each to an integer offset (exact).

@@ -35,6 +35,7 @@ from .polygon_terms import PolygonTerms
 __all__ = ["UniformBlur", "uniform_exponent", "directional_prefix_taps", "pixel_runs"]
 
 V = 16   # lanes per vector in the kernel
+CH = 4   # vectors per step over the image's columns
 
 
 def uniform_exponent(peak: float, terms: PolygonTerms) -> int:
@@ -121,7 +122,8 @@ class UniformBlur:
             rb = int(np.abs(sp.directions[:, 1]).max()) + 1
             pad = V * -(-sp.amax * channels // V)
             prg, _ = sp.device.program("polygon_uniform.cl", [f"-DNC={channels}",
-                                       f"-DNDIR={len(sp.directions)}", f"-DRB={rb}", f"-DPAD={pad}"])
+                                       f"-DNDIR={len(sp.directions)}", f"-DRB={rb}", f"-DPAD={pad}",
+                                       f"-DCH={CH}"])
             self._programs[channels] = (sp._cl.Kernel(prg, "quantise_padded"),
                                         sp._cl.Kernel(prg, "uniform_bands"), rb, pad)
         return self._programs[channels]
@@ -173,8 +175,9 @@ class UniformBlur:
         right = max(w, w + int(t.dx[b_of < 0].max(initial=0)))
         colstep = V // math.gcd(V, c)
         x0 = -colstep * -(-(-left) // colstep)
-        nvec = -(-(right - x0) * c // V)
-        vc0, vc1 = -x0 * c // V, -(-(w - x0) * c // V)
+        vc0 = -x0 * c // V
+        vc1 = vc0 + CH * -(-w * c // (V * CH))   # the image's vectors, whole steps of CH
+        nvec = max(vc1, -(-(right - x0) * c // V))
 
         # q covers every tap of the sweep (rows 0..h-1), the ring start (rows >= -max|b|) and
         # the column-sum start (row >= -1 with the runs' dy).
@@ -182,7 +185,7 @@ class UniformBlur:
         ox = np.concatenate([t.dx, *(p[:, 0] for p in init), kern.runs[:, 1], kern.runs[:, 2], [0]])
         oy = np.concatenate([t.dy, *(p[:, 1] for p in init), kern.runs[:, 0], [0]])
         qlane0 = int(ox.max()) * c
-        ql = qlane0 + V * nvec - int(ox.min()) * c
+        ql = c * -(-(qlane0 + V * nvec - int(ox.min()) * c) // c)   # whole pixels per row
         qrow0 = rb + int(oy.max())
         qr = qrow0 + h - int(oy.min())
         q = self._buffer("q", ql * qr * 4, "fixed-point image")

@@ -19,7 +19,8 @@
 // 64-bit integers, so sums are exact and independent of order.
 //
 // -D constants: NC (channels), NDIR (directions), RB (ring rows = max |b| + 1), PAD (zero lanes
-// either side of a ring row, a multiple of 16 >= max a * NC).
+// either side of a ring row, a multiple of 16 >= max a * NC), CH (vectors per step of the image's
+// columns: the taps' offsets are read once per CH vectors).
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 
 // Vectors at any element-aligned address with plain loads and stores (PoCL calls, rather than
@@ -72,6 +73,25 @@ inline int16 gather(__global const int *qv, __global const int *toff, __global c
     for (const int e = t + ti.z; t < e; ++t) g -= LOADI(qv + toff[t]);
     for (const int e = t + ti.w; t < e; ++t) g += LOADI(qv + toff[t]) * tval[t];
     return g;
+}
+
+// The same for CH consecutive vectors: each tap's offset is read once for all of them.
+inline void gather_chunk(__global const int *qv, __global const int *toff,
+                         __global const int *tval, const int4 ti, int16 *g) {
+    for (int c = 0; c < CH; ++c) g[c] = 0;
+    int t = ti.x;
+    for (const int e = t + ti.y; t < e; ++t) {
+        __global const int *p = qv + toff[t];
+        for (int c = 0; c < CH; ++c) g[c] += LOADI(p + 16 * c);
+    }
+    for (const int e = t + ti.z; t < e; ++t) {
+        __global const int *p = qv + toff[t];
+        for (int c = 0; c < CH; ++c) g[c] -= LOADI(p + 16 * c);
+    }
+    for (const int e = t + ti.w; t < e; ++t) {
+        __global const int *p = qv + toff[t];
+        for (int c = 0; c < CH; ++c) g[c] += LOADI(p + 16 * c) * tval[t];
+    }
 }
 
 // Advances direction d at vector v of the row (ring rows cur, prv already offset by -a NC for
@@ -145,8 +165,10 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
         const int4 run = runs[r];
         if (r == 0 || runs[r - 1].x != run.x) {
             __global const int *qrow = q + (long)(y0 - 1 - run.x + QROW0) * QL;
-            for (int j = 0; j < NC; ++j) hq[j] = 0;
-            for (int j = NC; j < QL + NC; ++j) hq[j] = hq[j - NC] + qrow[j - NC];
+            long sum[NC];
+            for (int c = 0; c < NC; ++c) hq[c] = sum[c] = 0;
+            for (int j = 0; j < QL; j += NC)
+                for (int c = 0; c < NC; ++c) hq[j + NC + c] = sum[c] += qrow[j + c];
         }
         for (int v = vc0; v < vc1; ++v) {
             const int j = QLANE0 + 16 * v;
@@ -179,26 +201,33 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
             for (int k = 0; k < NDIR; ++k)
                 if (d[k].y < 0)
                     advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k], run, &ch);
-        for (int v = vc0; v < vc1; ++v) {
-            long16 s = 0;
-            for (int k = 0; k < NDIR; ++k)
-                s += advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k], run, &ch);
-            const long16 a = LOADL(acc + 16 * (v - vc0)) + s;
-            STOREL(acc + 16 * (v - vc0), a);
-            const int l0 = 16 * (v - vc0);
-            const size_t o = (size_t)y * out_lanes + l0;
-            if (fixed) {
-                long av[16];
-                *(long16 *)av = a;
-                for (int j = 0; j < 16 && l0 + j < out_lanes; ++j) fixed_out[o + j] = av[j];
-            } else {
-                const float16 f = convert_float16(convert_double16(a) * factor);
-                if (l0 + 16 <= out_lanes) {
-                    *(__global float16u *)(out + o) = f;
+        for (int v0 = vc0; v0 < vc1; v0 += CH) {   // the host makes vc1 - vc0 a multiple of CH
+            long16 s[CH];
+            for (int c = 0; c < CH; ++c) s[c] = 0;
+            for (int k = 0; k < NDIR; ++k) {
+                int16 g[CH];
+                gather_chunk(qy + 16 * v0, toff, tval, ti[k], g);
+                for (int c = 0; c < CH; ++c) s[c] += advance(d[k], g[c], v0 + c, cur[k], prv[k], run, &ch);
+            }
+            for (int c = 0; c < CH; ++c) {
+                const int v = v0 + c;
+                const long16 a = LOADL(acc + 16 * (v - vc0)) + s[c];
+                STOREL(acc + 16 * (v - vc0), a);
+                const int l0 = 16 * (v - vc0);
+                const size_t o = (size_t)y * out_lanes + l0;
+                if (fixed) {
+                    long av[16];
+                    *(long16 *)av = a;
+                    for (int j = 0; j < 16 && l0 + j < out_lanes; ++j) fixed_out[o + j] = av[j];
                 } else {
-                    float fv[16];
-                    *(float16 *)fv = f;
-                    for (int j = 0; l0 + j < out_lanes; ++j) out[o + j] = fv[j];
+                    const float16 f = convert_float16(convert_double16(a) * factor);
+                    if (l0 + 16 <= out_lanes) {
+                        *(__global float16u *)(out + o) = f;
+                    } else {
+                        float fv[16];
+                        *(float16 *)fv = f;
+                        for (int j = 0; l0 + j < out_lanes; ++j) out[o + j] = fv[j];
+                    }
                 }
             }
         }

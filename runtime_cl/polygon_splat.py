@@ -55,7 +55,7 @@ from .errors import InputError
 from .polygon_kernel import edge_direction
 from .polygon_radii import MAX_RADIUS, BUCKETS, RadiusTable
 from .polygon_scale import ScaleOracle
-from .polygon_uniform import UniformBlur
+from .polygon_uniform import UniformBlur, non_finite_error
 
 __all__ = ["PolygonSplatter", "PolygonCanvas", "MAX_RADIUS", "fixed_point_exponents"]
 
@@ -166,25 +166,24 @@ class PolygonSplatter:
         return self._cl.Buffer(self.device.context, self._cl.mem_flags.READ_WRITE, max(nbytes, 8))
 
     # ----------------------------------------------------------------- validation
-    @classmethod
-    def _image(cls, image) -> np.ndarray:
-        return cls._image_peak(image)[0]
-
     @staticmethod
-    def _image_peak(image):
-        """The image as float32 (H, W, C) and its largest ``|colour|`` (one pass each for min, max)."""
+    def _image_array(image) -> np.ndarray:
+        """The image as C-contiguous float32 (H, W, C), shape checked (values not)."""
         a = np.asarray(image)
         if a.ndim == 2:
             a = a[..., None]
         if a.ndim != 3 or not 1 <= a.shape[2] <= 4 or 0 in a.shape:
             raise InputError(f"image: shape {np.shape(image)} is not (H, W) or (H, W, C<=4); "
                              "pass an RGB(A) array")
-        a = np.ascontiguousarray(a, np.float32)
-        lo, hi = float(a.min()), float(a.max())
-        if not (math.isfinite(lo) and math.isfinite(hi)):   # NaN propagates through min/max
-            raise InputError(f"image: {int((~np.isfinite(a)).sum())} non-finite value(s); "
-                             "replace NaN/inf colours before blurring")
-        return a, max(hi, -lo)
+        return np.ascontiguousarray(a, np.float32)
+
+    @classmethod
+    def _image(cls, image) -> np.ndarray:
+        """:meth:`_image_array`, and every value finite."""
+        a = cls._image_array(image)
+        if not (np.isfinite(a.max()) and np.isfinite(a.min())):   # NaN propagates through max
+            raise non_finite_error(a)
+        return a
 
     @staticmethod
     def _radius(radius, shape):
@@ -351,14 +350,16 @@ class PolygonSplatter:
             ``exponent``, ``area`` (uniform).
         """
         start = time.perf_counter()
-        img, peak = self._image_peak(image)
+        img = self._image_array(image)
         h, w, c = img.shape
         r = self._radius(radius, (h, w))
         if r.ndim == 0 and r == 0 and not fixed:
+            img = self._image(img)
             out, info = img.copy(), {"exponent": np.zeros(c, np.int64), "area": 1}   # the delta
         elif r.ndim == 0:
-            out, info = self._uniform.render(img, float(r), peak, fixed)
+            out, info = self._uniform.render(img, float(r), fixed)   # checks the values itself
         else:
+            img = self._image(img)
             canvas = self.canvas(h, w, c, float(np.abs(img).sum(dtype=np.float64)))
             splat = self._splat(canvas, img, r)
             out, events, ev = self._resolve(canvas, fixed)

@@ -29,13 +29,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from .device import event_ms
+from .errors import InputError
 from .polygon_kernel import rasterize_polygon
 from .polygon_terms import PolygonTerms
 
-__all__ = ["UniformBlur", "uniform_exponent", "directional_prefix_taps", "pixel_runs"]
+__all__ = ["UniformBlur", "uniform_exponent", "directional_prefix_taps", "pixel_runs",
+           "non_finite_error"]
 
 V = 16   # lanes per vector in the kernel
 CH = 4   # vectors per step over the image's columns
+
+
+def non_finite_error(image: np.ndarray) -> InputError:
+    """The error for an image holding NaN or inf colours."""
+    return InputError(f"image: {int((~np.isfinite(image)).sum())} non-finite value(s); "
+                      "replace NaN/inf colours before blurring")
 
 
 def uniform_exponent(peak: float, terms: PolygonTerms) -> int:
@@ -124,7 +132,8 @@ class UniformBlur:
             prg, _ = sp.device.program("polygon_uniform.cl", [f"-DNC={channels}",
                                        f"-DNDIR={len(sp.directions)}", f"-DRB={rb}", f"-DPAD={pad}",
                                        f"-DCH={CH}"])
-            self._programs[channels] = (sp._cl.Kernel(prg, "quantise_padded"),
+            self._programs[channels] = (sp._cl.Kernel(prg, "row_peak"),
+                                        sp._cl.Kernel(prg, "quantise_padded"),
                                         sp._cl.Kernel(prg, "uniform_bands"), rb, pad)
         return self._programs[channels]
 
@@ -150,12 +159,16 @@ class UniformBlur:
             self._entries[e] = _Kernel(t, init, pixel_runs(self.sp.table.scale.polygon(radius)))
         return self._entries[e]
 
-    def render(self, img: np.ndarray, radius: float, peak: float, fixed: bool = False):
-        """Blur the validated float32 (H, W, C) ``img`` by the polygon at ``radius``.
+    def render(self, img: np.ndarray, radius: float, fixed: bool = False):
+        """Blur the C-contiguous float32 (H, W, C) ``img`` by the polygon at ``radius``.
 
-        ``peak`` is ``max |img|``. Returns ``(out, info)`` as
-        :meth:`~runtime_cl.polygon_splat.PolygonSplatter.render` (``fixed``: the int64 sums in
-        units of ``2^-e / area``).
+        Returns ``(out, info)`` as :meth:`~runtime_cl.polygon_splat.PolygonSplatter.render`
+        (``fixed``: the int64 sums in units of ``2^-e / area``).
+
+        Raises
+        ------
+        InputError
+            ``img`` holds NaN or inf (found on the device, with the largest ``|colour|``).
         """
         sp, cl = self.sp, self.sp._cl
         queue = sp.device.queue
@@ -163,9 +176,18 @@ class UniformBlur:
         sp.table.ensure(float(radius))
         kern = self._entry(radius)
         t = kern.terms
-        quantise, bands_kernel, rb, pad = self._kernels(c)
+        row_peak, quantise, bands_kernel, rb, pad = self._kernels(c)
         dirs = sp.directions
-        e = uniform_exponent(peak, t)
+        img_buf = cl.Buffer(sp.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR,
+                            hostbuf=img)
+        # largest |colour| per row as float bits (NaN and inf above every finite value)
+        peaks = np.empty(h, np.uint32)
+        peak_buf = self._buffer("peaks", h * 4, "row peaks")
+        events = [row_peak(queue, (h,), (1,), img_buf, np.int32(w * c), peak_buf)]
+        cl.enqueue_copy(queue, peaks, peak_buf, wait_for=events)
+        if peaks.max() >= 0x7F800000:
+            raise non_finite_error(img)
+        e = uniform_exponent(float(peaks.max().view(np.float32)), t)
 
         # Region columns [x0, x1): every column where some direction's differences are non-zero
         # (b >= 0 lines are summed from the left, b < 0 from the right); x0 aligned so that
@@ -189,10 +211,8 @@ class UniformBlur:
         qrow0 = rb + int(oy.max())
         qr = qrow0 + h - int(oy.min())
         q = self._buffer("q", ql * qr * 4, "fixed-point image")
-        img_buf = cl.Buffer(sp.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR,
-                            hostbuf=img)
-        events = [quantise(queue, (qr,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
-                           q, np.int32(ql), np.int32((int(ox.max()) - x0) * c), np.int32(-qrow0))]
+        events.append(quantise(queue, (qr,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
+                           q, np.int32(ql), np.int32((int(ox.max()) - x0) * c), np.int32(-qrow0)))
 
         def offsets(dx, dy, v):
             return np.stack([-np.asarray(dy) * ql - np.asarray(dx) * c, v], 1).astype(np.int32)
@@ -229,5 +249,6 @@ class UniformBlur:
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape, out.dtype,
                                           wait_for=events[-1:], is_blocking=True)
         mapped.base.release(queue)
-        return out, {"quantise_ms": event_ms(events[0]), "sweep_ms": event_ms(events[1]),
+        return out, {"peak_ms": event_ms(events[0]), "quantise_ms": event_ms(events[1]),
+                     "sweep_ms": event_ms(events[2]),
                      "exponent": np.full(c, e), "area": t.area, "bands": n_bands}

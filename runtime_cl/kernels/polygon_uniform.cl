@@ -28,9 +28,25 @@
 typedef int int16u __attribute__((ext_vector_type(16), aligned(4)));
 typedef long long16u __attribute__((ext_vector_type(16), aligned(8)));
 typedef float float16u __attribute__((ext_vector_type(16), aligned(4)));
+typedef uint uint16u __attribute__((ext_vector_type(16), aligned(4)));
 #define LOADI(p) (*(__global const int16u *)(p))
 #define LOADL(p) (*(__global const long16u *)(p))
 #define STOREL(p, v) (*(__global long16u *)(p) = (v))
+
+// Largest |colour| of each row, as float bits: compared as integers, NaN and inf rank above
+// every finite value, so one maximum also tells whether the row is finite. One row per item.
+__kernel void row_peak(__global const float *image, const int n, __global uint *peak)
+{
+    const int y = get_global_id(0);
+    __global const uint *row = (__global const uint *)image + (size_t)y * n;
+    uint16 m = 0;
+    int l = 0;
+    for (; l + 16 <= n; l += 16) m = max(m, *(__global const uint16u *)(row + l) & 0x7fffffffu);
+    uint s = max(max(max(m.s0, m.s1), max(m.s2, m.s3)), max(max(m.s4, m.s5), max(m.s6, m.s7)));
+    s = max(s, max(max(max(m.s8, m.s9), max(m.sa, m.sb)), max(max(m.sc, m.sd), max(m.se, m.sf))));
+    for (; l < n; ++l) s = max(s, row[l] & 0x7fffffffu);
+    peak[y] = s;
+}
 
 // q = rint(colour * scale) (an exact float scaling), zero outside the image; q row r is image row
 // QY0 + r, its lane l image lane l - LO of that row (LO = zero lanes left of the image). One

@@ -5,8 +5,9 @@ the kernel's few terms (16 for the built-in hexagon, 8 for MHU21's 45-degree one
 fixed-point image, and the directional prefix sums (eq. 10), their sum and the vertical prefix
 sum (eq. 11) can all run in the same top-down walk over the rows (``kernels/polygon_uniform.cl``):
 per row the work item reads the taps, updates each direction's prefix from a ring of the last
-``|b|`` rows and the column sums, and writes the colour row. Nothing but the fixed-point image
-and the output goes through memory, no atomics, no carries.
+``|b|`` rows and the column sums, and writes the colour row. Only the fixed-point image, one
+row of state per direction and the output go through memory: no atomics, no carries, no
+per-direction image buffers.
 
 Parallelism: the image is cut into bands of rows, one work item each. A band starts from the
 exact state of the row above it, computed from the same image: each direction's prefix sum is
@@ -18,8 +19,10 @@ Exactness: ``q = rint(colour 2^e)`` in int32 with ``2^e max|colour| sum_t |v_t| 
 direction), so the gathered differences fit int32 and everything after them is wrapping int64:
 the output is the exact integer sum of ``q`` over the kernel (the brute-force splat of
 ``tests/runtime_cl/polygon_reference.py``), divided by the kernel's pixel count in float64 and
-rounded once to float32. Quantisation: at most ``2^-(e+1) <= 2^-29`` of the largest colour
-(``2^-28`` for 3..4 taps per direction ... ; see :func:`uniform_exponent`).
+rounded once to float32. Every ``q`` is off by at most half a unit, so an output is off by at
+most ``2^-(e+1) <= 2^-(30 - ceil(log2 s))`` of the largest colour, ``s`` the largest
+``sum_t |v_t|`` of a direction (``2^-27`` for the built-in hexagon's ``s = 8``; see
+:func:`uniform_exponent`).
 """
 from __future__ import annotations
 
@@ -97,7 +100,7 @@ def pixel_runs(polygon) -> np.ndarray:
 
 @dataclass(frozen=True)
 class _Kernel:
-    """Radius-independent-of-image data of one table entry (host side)."""
+    """Host-side data of one table entry (independent of the image)."""
 
     terms: PolygonTerms
     init: list            # per direction: (dx, dy, c) of the ring state taps
@@ -112,16 +115,17 @@ class UniformBlur:
     splatter : runtime_cl.polygon_splat.PolygonSplatter
         Supplies the device, the edge directions and the radius table (the same polygons,
         terms and pixel counts as its radius-map path).
-    bands_per_unit : int, default 2
+    bands_per_unit : float, default 2
         Bands of rows per compute unit (more balance the load on a busy machine; each band
         costs one start-up of O(kernel size x width)).
     """
 
-    def __init__(self, splatter, bands_per_unit: int = 2):
+    def __init__(self, splatter, bands_per_unit: float = 2):
         self.sp = splatter
         self.bands_per_unit = bands_per_unit
         self._programs: dict = {}
-        self._entries: dict = {}
+        self._entries: dict = {}     # table entry -> _Kernel, for the table's current scale
+        self._scale = None
         self._buffers: dict = {}
 
     def _kernels(self, channels: int):
@@ -146,6 +150,9 @@ class UniformBlur:
         return self._buffers[name]
 
     def _entry(self, radius: float) -> _Kernel:
+        if self._scale is not self.sp.table.scale:   # the table grew: entries renumbered
+            self._entries.clear()
+            self._scale = self.sp.table.scale
         e = int(self.sp.table.entry(np.float32(radius)))
         if e not in self._entries:
             t = self.sp.table.terms[e]
@@ -204,15 +211,17 @@ class UniformBlur:
         # q covers every tap of the sweep (rows 0..h-1), the ring start (rows >= -max|b|) and
         # the column-sum start (row >= -1 with the runs' dy).
         init = [p for p in kern.init if len(p)]
-        ox = np.concatenate([t.dx, *(p[:, 0] for p in init), kern.runs[:, 1], kern.runs[:, 2], [0]])
+        ox = np.concatenate([t.dx, *(p[:, 0] for p in init), kern.runs[:, 1], kern.runs[:, 2],
+                             [0]])
         oy = np.concatenate([t.dy, *(p[:, 1] for p in init), kern.runs[:, 0], [0]])
         qlane0 = int(ox.max()) * c
         ql = c * -(-(qlane0 + V * nvec - int(ox.min()) * c) // c)   # whole pixels per row
         qrow0 = rb + int(oy.max())
         qr = qrow0 + h - int(oy.min())
         q = self._buffer("q", ql * qr * 4, "fixed-point image")
-        events.append(quantise(queue, (qr,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
-                           q, np.int32(ql), np.int32((int(ox.max()) - x0) * c), np.int32(-qrow0)))
+        events.append(quantise(queue, (qr,), (1,), img_buf, np.int32(w), np.int32(h),
+                               np.float32(2.0 ** e), q, np.int32(ql),
+                               np.int32((int(ox.max()) - x0) * c), np.int32(-qrow0)))
 
         def offsets(dx, dy, v):
             return np.stack([-np.asarray(dy) * ql - np.asarray(dx) * c, v], 1).astype(np.int32)
@@ -231,7 +240,8 @@ class UniformBlur:
         runs = np.zeros((len(kern.runs), 4), np.int32)
         runs[:, :3] = kern.runs
 
-        n_bands = max(1, min(h, int(self.bands_per_unit * int(sp.device.device.max_compute_units))))
+        units = int(sp.device.device.max_compute_units)
+        n_bands = max(1, min(h, int(self.bands_per_unit * units)))
         bands = np.linspace(0, h, n_bands + 1).round().astype(np.int32)
         stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c
         scratch = self._buffer("scratch", n_bands * stride * 8, "band scratch")
@@ -242,12 +252,12 @@ class UniformBlur:
         events.append(bands_kernel(
             queue, (n_bands,), (1,), q, np.int32(ql), np.int32(qrow0), np.int32(qlane0),
             np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), sp._upload(bands),
-            sp._dirs, sp._upload(tinfo), sp._upload(taps[:, 0].copy()), sp._upload(taps[:, 1].copy()),
-            sp._upload(istart), sp._upload(itaps),
-            sp._upload(runs), np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor),
-            out_buf, out_buf, np.int32(1 if fixed else 0)))
-        mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape, out.dtype,
-                                          wait_for=events[-1:], is_blocking=True)
+            sp._dirs, sp._upload(tinfo), sp._upload(taps[:, 0].copy()),
+            sp._upload(taps[:, 1].copy()), sp._upload(istart), sp._upload(itaps), sp._upload(runs),
+            np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor), out_buf, out_buf,
+            np.int32(1 if fixed else 0)))
+        mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
+                                          out.dtype, wait_for=events[-1:], is_blocking=True)
         mapped.base.release(queue)
         return out, {"peak_ms": event_ms(events[0]), "quantise_ms": event_ms(events[1]),
                      "sweep_ms": event_ms(events[2]),

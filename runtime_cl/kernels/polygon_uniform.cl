@@ -62,7 +62,8 @@ __kernel void quantise_padded(__global const float *image, const int W, const in
     int l = 0;
     for (; l < (inside ? LO : QL); ++l) row[l] = 0;
     for (; l + 16 <= hi; l += 16)
-        *(__global int16u *)(row + l) = convert_int16_rte(*(__global const float16u *)(src + l) * scale);
+        *(__global int16u *)(row + l) =
+            convert_int16_rte(*(__global const float16u *)(src + l) * scale);
     for (; l < hi; ++l) row[l] = convert_int_rte(src[l] * scale);
     for (; l < QL; ++l) row[l] = 0;
 }
@@ -70,7 +71,8 @@ __kernel void quantise_padded(__global const float *image, const int W, const in
 inline int slot(int y) { return ((y % RB) + RB) % RB; }
 
 // Sum over `n` taps (q offset, weight) at q + base, in int64, for one 16-lane vector.
-inline long16 taps64(__global const int *q, const long base, __global const int2 *tap, const int n) {
+inline long16 taps64(__global const int *q, const long base, __global const int2 *tap,
+                     const int n) {
     long16 s = 0;
     for (int t = 0; t < n; ++t) {
         const int2 tp = tap[t];
@@ -171,7 +173,8 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
             __global long *row = ring + (size_t)(k * RB + slot(y)) * RLP + PAD;
             const long base = (long)(y + QROW0) * QL + QLANE0;
             for (int v = va; v < vb; ++v)
-                STOREL(row + 16 * v, taps64(q, base + 16 * v, itaps + istart[k], istart[k + 1] - istart[k]));
+                STOREL(row + 16 * v, taps64(q, base + 16 * v, itaps + istart[k],
+                                            istart[k + 1] - istart[k]));
         }
     }
     // Column sums of row y0 - 1: per kernel row ky, its runs [dx0, dx1] of pixels as differences
@@ -188,7 +191,8 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
         }
         for (int v = vc0; v < vc1; ++v) {
             const int j = QLANE0 + 16 * v;
-            STOREL(acc + 16 * (v - vc0), LOADL(acc + 16 * (v - vc0)) + LOADL(hq + j - (run.y - 1) * NC) - LOADL(hq + j - run.z * NC));
+            __global long *a = acc + 16 * (v - vc0);
+            STOREL(a, LOADL(a) + LOADL(hq + j - (run.y - 1) * NC) - LOADL(hq + j - run.z * NC));
         }
     }
 
@@ -212,18 +216,21 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
         for (int v = 0; v < vc0; ++v)
             for (int k = 0; k < NDIR; ++k)
                 if (d[k].y >= 0)
-                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k], run, &ch);
+                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
+                            run, &ch);
         for (int v = vc1; v < nvec; ++v)
             for (int k = 0; k < NDIR; ++k)
                 if (d[k].y < 0)
-                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k], run, &ch);
+                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
+                            run, &ch);
         for (int v0 = vc0; v0 < vc1; v0 += CH) {   // the host makes vc1 - vc0 a multiple of CH
             long16 s[CH];
             for (int c = 0; c < CH; ++c) s[c] = 0;
             for (int k = 0; k < NDIR; ++k) {
                 int16 g[CH];
                 gather_chunk(qy + 16 * v0, toff, tval, ti[k], g);
-                for (int c = 0; c < CH; ++c) s[c] += advance(d[k], g[c], v0 + c, cur[k], prv[k], run, &ch);
+                for (int c = 0; c < CH; ++c)
+                    s[c] += advance(d[k], g[c], v0 + c, cur[k], prv[k], run, &ch);
             }
             for (int c = 0; c < CH; ++c) {
                 const int v = v0 + c;

@@ -15,8 +15,8 @@ Pipeline (``kernels/polygon_splat.cl``)
    radius: 16 for the built-in hexagon, 12 for the octagon, 8 for MHU21's 45-degree hexagon) and
    its pixel count, exact by Pick's theorem.
 2. Splat the terms into one buffer per edge direction (eq. 9). Radius map: one work item per
-   strip of columns; the strips of one launch lie further apart than any kernel reaches, so
-   adds are plain, except the atomic ones near the border where folded terms land.
+   tile of pixels; the tiles of one launch lie further apart than any kernel reaches, so adds
+   are plain, except the atomic ones near the border where folded terms land.
 3. Prefix sum along each direction (eq. 10) in column chunks (every pass streams row
    segments), a carry per line and chunk, then the sum over directions plus carries and the
    vertical prefix sum (eq. 11) in one pass that writes the colour image.
@@ -60,7 +60,7 @@ from .polygon_uniform import UniformBlur, non_finite_error
 __all__ = ["PolygonSplatter", "PolygonCanvas", "MAX_RADIUS", "fixed_point_exponents"]
 
 CB, LOCAL = 8, 8   # columns per vertical-sum work item; work-group size of wide launches
-STRIP = 128        # columns per splatting work item (narrower if launches would be too few)
+ROW = 128          # least width of a splatting tile (its rows are the terms' write streams)
 SERIAL = ("splat", "prefix_local", "prefix_carry", "comb_prefix")  # few, long items
 
 
@@ -256,25 +256,25 @@ class PolygonSplatter:
         canvas.used = canvas.used + energy
         table = self.table.ensure(float(r.max()))
         span = table.span(float(r.max()))
-        # Strips one launch runs are `period` strips apart, more than a kernel's span: plain adds
+        # Tiles one launch runs are `period` tiles apart, more than a kernel's span: plain adds
         # cannot race. `splat` uses atomics only where folded terms land (the border zone).
-        strip = self._strip_width(w, span)
-        period = 2 + span // strip
+        # Rows of at least ROW pixels: each term's writes stream along them.
+        th = max(32, span // 2)
+        tw = max(ROW, th)
+        px, py = 2 + span // tw, 2 + span // th
         unit = np.ldexp(1.0, canvas.exponent)[None, :] / table.area[:, None]   # 2^e / area
         args = [self._upload(img), self._upload(r), np.int32(w), np.int32(h), table.breaks,
                 np.int32(len(table)), table.bucket, table.start, table.packed, self._upload(unit),
-                self._dirs, canvas.bufs, canvas.comb, np.int32(strip), np.int32(period)]
-        n_strips = -(-w // strip)
-        return [self._launch(c, "splat", -(-(n_strips - c0) // period), *args, np.int32(c0))
-                for c0 in range(min(period, n_strips))]
-
-    def _strip_width(self, width: int, span: int) -> int:
-        """Columns per splatting work item: STRIP, halved (down to 32) while a launch would get
-        fewer than two strips per compute unit."""
-        strip, units = STRIP, int(self.device.device.max_compute_units)
-        while strip > 32 and -(-width // strip) < 2 * units * (2 + span // strip):
-            strip //= 2
-        return strip
+                self._dirs, canvas.bufs, canvas.comb, np.int32(tw), np.int32(th), np.int32(px),
+                np.int32(py)]
+        n_tx, n_ty = -(-w // tw), -(-h // th)
+        events = []
+        for cy in range(min(py, n_ty)):
+            for cx in range(min(px, n_tx)):
+                nx, ny = -(-(n_tx - cx) // px), -(-(n_ty - cy) // py)
+                events.append(self._launch(c, "splat", nx * ny, *args, np.int32(cx), np.int32(cy),
+                                           np.int32(nx)))
+        return events
 
     def resolve(self, canvas: PolygonCanvas, fixed: bool = False):
         """Prefix sums (eq. 10, 11) and conversion of a filled canvas.

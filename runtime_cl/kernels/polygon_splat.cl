@@ -31,7 +31,7 @@ inline void add_comb(__global ulong *comb, int a, int x, int W, const ulong *v, 
 }
 
 // Adds the term v at (x, y) of direction (a, b) to buffer `buf` (H x W x NC), folded. Plain
-// (non-atomic) adds are safe for unfolded targets off the border zone (the host runs strips that
+// (non-atomic) adds are safe for unfolded targets off the border zone (the host runs tiles that
 // could touch the same pixel in different launches); folded terms and the border zone
 // (x < AMAX, y < BMAX, y >= H - BMAX), where folded terms land, use atomics.
 inline void emit(__global ulong *buf, __global ulong *comb, int a, int b, int x, int y,
@@ -72,9 +72,9 @@ inline int find_entry(__global const float *breaks, int n, __global const int *b
     return e;
 }
 
-// Spatially varying radius: each work item splats one strip of S columns, all rows (long rows
-// and a narrow footprint keep the terms' write streams in cache). One launch runs the strips
-// c0 + i P, further apart than any kernel reaches (the host's P), so plain adds do not race.
+// Spatially varying radius: each work item splats one TW x TH tile of pixels. One launch runs
+// the tiles (cx + i PX, cy + j PY): their kernels (at most the host's span wide or high) cannot
+// overlap, so plain adds do not race.
 // q = rint(colour * unit[entry, c]) with unit = 2^e / area (one double product per channel).
 __kernel void splat(__global const float *image,          // H x W x NC
                     __global const float *radius,         // H x W
@@ -86,14 +86,16 @@ __kernel void splat(__global const float *image,          // H x W x NC
                     __global const int2 *dirs,            // NDIR
                     __global ulong *bufs,                 // NDIR x H x W x NC
                     __global ulong *comb,                 // AMAX x W x NC
-                    const int S, const int P, const int c0)
+                    const int TW, const int TH, const int PX, const int PY, const int cx,
+                    const int cy, const int n_tx)
 {
-    const int x0 = (c0 + get_global_id(0) * P) * S;
-    if (x0 >= W) return;
+    const int i = get_global_id(0);
+    const int x0 = (cx + (i % n_tx) * PX) * TW, y0 = (cy + (i / n_tx) * PY) * TH;
+    if (x0 >= W || y0 >= H) return;
     float last_r = -1.0f;
     int e = 0;
-    for (int y = 0; y < H; ++y)
-    for (int x = x0; x < min(x0 + S, W); ++x) {
+    for (int y = y0; y < min(y0 + TH, H); ++y)
+    for (int x = x0; x < min(x0 + TW, W); ++x) {
         const size_t p = (size_t)y * W + x;
         const float r = radius[p];
         if (r != last_r) { e = find_entry(breaks, n_entries, bucket, r); last_r = r; }

@@ -10,7 +10,7 @@ from polygon_reference import shape, splat_fixed, splat_float64
 
 from runtime_cl.errors import InputError
 from runtime_cl.polygon_kernel import scale_polygon
-from runtime_cl.polygon_splat import PolygonSplatter
+from runtime_cl.polygon_splat import ROW, PolygonSplatter
 
 _SPLATTERS = {}
 
@@ -152,17 +152,16 @@ def test_bad_input_names_the_argument():
         sp.render(np.ones((4, 6, 7), np.float32), 1.0)
 
 
-def test_radius_map_strips_in_parallel_are_brute_force_exact():
-    """A wide image: several launches of several column strips each (plain adds in the strips,
-    atomics where folded terms land), still the brute-force integers, run after run."""
+def test_radius_map_tiles_in_parallel_are_brute_force_exact():
+    """A wide image: launches of several tiles each (plain adds in the tiles, atomics where
+    folded terms land), still the brute-force integers, run after run."""
     rng = np.random.default_rng(12)
     sp = splatter("heart12")
     h, w = 14, 600
     img = scene(rng, h, w)
     rad = (rng.random((h, w)) * 30).astype(np.float32)
     span = sp.table.ensure(30.0).span(float(rad.max()))
-    strip = sp._strip_width(w, span)
-    assert -(-w // strip) > 2 * (2 + span // strip)          # > 2 strips per launch
+    assert -(-w // ROW) > 2 * (2 + span // ROW)              # > 2 tiles per launch
     out, info = sp.render(img, rad, fixed=True)
     np.testing.assert_array_equal(out, splat_fixed(img, rad, sp.polygon, info["exponent"][0]))
     np.testing.assert_array_equal(sp.render(img, rad, fixed=True)[0], out)

@@ -118,11 +118,14 @@ class UniformBlur:
     bands_per_unit : float, default 2
         Bands of rows per compute unit (more balance the load on a busy machine; each band
         costs one start-up of O(kernel size x width)).
+    band_rows : int, default 512
+        Fewest rows per band beyond one band per compute unit (smaller images: fewer start-ups).
     """
 
-    def __init__(self, splatter, bands_per_unit: float = 2):
+    def __init__(self, splatter, bands_per_unit: float = 2, band_rows: int = 512):
         self.sp = splatter
         self.bands_per_unit = bands_per_unit
+        self.band_rows = band_rows
         self._programs: dict = {}
         self._entries: dict = {}     # table entry -> _Kernel, for the table's current scale
         self._scale = None
@@ -137,7 +140,6 @@ class UniformBlur:
                                        f"-DNDIR={len(sp.directions)}", f"-DRB={rb}", f"-DPAD={pad}",
                                        f"-DCH={CH}"])
             self._programs[channels] = (sp._cl.Kernel(prg, "row_peak"),
-                                        sp._cl.Kernel(prg, "quantise_padded"),
                                         sp._cl.Kernel(prg, "uniform_bands"), rb, pad)
         return self._programs[channels]
 
@@ -183,7 +185,7 @@ class UniformBlur:
         sp.table.ensure(float(radius))
         kern = self._entry(radius)
         t = kern.terms
-        row_peak, quantise, bands_kernel, rb, pad = self._kernels(c)
+        row_peak, bands_kernel, rb, pad = self._kernels(c)
         dirs = sp.directions
         img_buf = cl.Buffer(sp.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=img)
@@ -208,20 +210,15 @@ class UniformBlur:
         vc1 = vc0 + CH * -(-w * c // (V * CH))   # the image's vectors, whole steps of CH
         nvec = max(vc1, -(-(right - x0) * c // V))
 
-        # q covers every tap of the sweep (rows 0..h-1), the ring start (rows >= -max|b|) and
-        # the column-sum start (row >= -1 with the runs' dy).
+        # q rows cover every tap of the sweep (rows 0..h-1), the ring start (rows >= -max|b|)
+        # and the column-sum start (row >= -1 with the runs' dy); each band its own rows.
         init = [p for p in kern.init if len(p)]
         ox = np.concatenate([t.dx, *(p[:, 0] for p in init), kern.runs[:, 1], kern.runs[:, 2],
                              [0]])
         oy = np.concatenate([t.dy, *(p[:, 1] for p in init), kern.runs[:, 0], [0]])
         qlane0 = int(ox.max()) * c
         ql = c * -(-(qlane0 + V * nvec - int(ox.min()) * c) // c)   # whole pixels per row
-        qrow0 = rb + int(oy.max())
-        qr = qrow0 + h - int(oy.min())
-        q = self._buffer("q", ql * qr * 4, "fixed-point image")
-        events.append(quantise(queue, (qr,), (1,), img_buf, np.int32(w), np.int32(h),
-                               np.float32(2.0 ** e), q, np.int32(ql),
-                               np.int32((int(ox.max()) - x0) * c), np.int32(-qrow0)))
+        qrow0, qlast = rb + int(oy.max()), -int(oy.min())   # rows above and below a band
 
         def offsets(dx, dy, v):
             return np.stack([-np.asarray(dy) * ql - np.asarray(dx) * c, v], 1).astype(np.int32)
@@ -241,8 +238,11 @@ class UniformBlur:
         runs[:, :3] = kern.runs
 
         units = int(sp.device.device.max_compute_units)
-        n_bands = max(1, min(h, int(self.bands_per_unit * units)))
+        n_bands = max(1, min(h, int(self.bands_per_unit * units),
+                             max(units, h // self.band_rows)))
         bands = np.linspace(0, h, n_bands + 1).round().astype(np.int32)
+        slab = (int(np.diff(bands).max()) + qrow0 + qlast) * ql
+        q = self._buffer("q", n_bands * slab * 4, "fixed-point image")
         stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c
         scratch = self._buffer("scratch", n_bands * stride * 8, "band scratch")
         out = np.empty((h, w, c), np.int64 if fixed else np.float32)
@@ -250,7 +250,9 @@ class UniformBlur:
                             hostbuf=out)
         factor = np.ldexp(1.0, -e) / t.area
         events.append(bands_kernel(
-            queue, (n_bands,), (1,), q, np.int32(ql), np.int32(qrow0), np.int32(qlane0),
+            queue, (n_bands,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
+            np.int32((int(ox.max()) - x0) * c), q, np.int64(slab), np.int32(ql), np.int32(qrow0),
+            np.int32(qlast), np.int32(qlane0),
             np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), sp._upload(bands),
             sp._dirs, sp._upload(tinfo), sp._upload(taps[:, 0].copy()),
             sp._upload(taps[:, 1].copy()), sp._upload(istart), sp._upload(itaps), sp._upload(runs),
@@ -259,6 +261,5 @@ class UniformBlur:
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
                                           out.dtype, wait_for=events[-1:], is_blocking=True)
         mapped.base.release(queue)
-        return out, {"peak_ms": event_ms(events[0]), "quantise_ms": event_ms(events[1]),
-                     "sweep_ms": event_ms(events[2]),
+        return out, {"peak_ms": event_ms(events[0]), "sweep_ms": event_ms(events[1]),
                      "exponent": np.full(c, e), "area": t.area, "bands": n_bands}

@@ -48,15 +48,10 @@ __kernel void row_peak(__global const float *image, const int n, __global uint *
     peak[y] = s;
 }
 
-// q = rint(colour * scale) (an exact float scaling), zero outside the image; q row r is image row
-// QY0 + r, its lane l image lane l - LO of that row (LO = zero lanes left of the image). One
-// row per work item, vectors of 16 (PoCL vectorises this better than one lane per item).
-__kernel void quantise_padded(__global const float *image, const int W, const int H,
-                              const float scale, __global int *q, const int QL, const int LO,
-                              const int QY0)
-{
-    const int r = get_global_id(0), y = QY0 + r;
-    __global int *row = q + (size_t)r * QL;
+// q row of image row y: rint(colour * scale) (an exact float scaling), zeros outside the image;
+// lane l of the row is image lane l - LO of that row (LO zero lanes left of the image).
+inline void quantise_row(__global const float *image, const int W, const int H, const float scale,
+                         const int y, __global int *row, const int QL, const int LO) {
     const int inside = y >= 0 && y < H, hi = inside ? LO + W * NC : 0;
     __global const float *src = image + (size_t)(inside ? y : 0) * W * NC - LO;
     int l = 0;
@@ -142,10 +137,15 @@ inline long16 advance(const int2 d, const int16 g, const int v, __global long *c
 }
 
 // One work item per band of rows [bands[i], bands[i + 1]); see the file comment.
-// q index of (row y, region lane L): (y + QROW0) * QL + QLANE0 + L.
+// The band quantises the image rows its taps read into its own slab of q, each just before its
+// first use (rows y0 - QROW0 .. y1 - 1 + QLAST): q index of (row y, region lane L) is
+// (y - y0 + QROW0) * QL + QLANE0 + L in the slab.
 // scratch per band: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
 // row prefix of q (QL + NC).
-__kernel void uniform_bands(__global const int *q, const int QL, const int QROW0, const int QLANE0,
+__kernel void uniform_bands(__global const float *image, const int W, const int H,
+                            const float scale, const int LO,
+                            __global int *qall, const long slab_stride, const int QL,
+                            const int QROW0, const int QLAST, const int QLANE0,
                             const int nvec, const int vc0, const int vc1, const int out_lanes,
                             __global const int *bands,
                             __global const int2 *dirs,
@@ -158,12 +158,15 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
                             const int fixed)
 {
     const int band = get_global_id(0), y0 = bands[band], y1 = bands[band + 1];
+    __global int *q = qall + band * slab_stride - (long)(y0 - QROW0) * QL;   // q + y * QL: row y
     const int RL = nvec * 16, RLP = RL + 2 * PAD;
     __global long *ring = scratch + band * scratch_stride;
     __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
     __global long *hq = acc + (vc1 - vc0) * 16;
     if (y0 >= y1) return;
     for (size_t i = 0; i < (size_t)NDIR * RB * RLP; ++i) ring[i] = 0;
+    for (int y = y0 - QROW0; y <= y0 + QLAST; ++y)   // every row the start and row y0 read
+        quantise_row(image, W, H, scale, y, q + (long)y * QL, QL, LO);
 
     // Ring state of rows y0 - |b| .. y0 - 1: the directional prefix of d's terms as taps.
     for (int k = 0; k < NDIR; ++k) {
@@ -171,7 +174,7 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
         const int va = b < 0 ? vc0 : 0, vb = b < 0 ? nvec : vc1;
         for (int y = y0 - nb; y < y0; ++y) {
             __global long *row = ring + (size_t)(k * RB + slot(y)) * RLP + PAD;
-            const long base = (long)(y + QROW0) * QL + QLANE0;
+            const long base = (long)y * QL + QLANE0;
             for (int v = va; v < vb; ++v)
                 STOREL(row + 16 * v, taps64(q, base + 16 * v, itaps + istart[k],
                                             istart[k + 1] - istart[k]));
@@ -183,7 +186,7 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
     for (int r = 0; r < n_runs; ++r) {
         const int4 run = runs[r];
         if (r == 0 || runs[r - 1].x != run.x) {
-            __global const int *qrow = q + (long)(y0 - 1 - run.x + QROW0) * QL;
+            __global const int *qrow = q + (long)(y0 - 1 - run.x) * QL;
             long sum[NC];
             for (int c = 0; c < NC; ++c) hq[c] = sum[c] = 0;
             for (int j = 0; j < QL; j += NC)
@@ -197,7 +200,8 @@ __kernel void uniform_bands(__global const int *q, const int QL, const int QROW0
     }
 
     for (int y = y0; y < y1; ++y) {
-        __global const int *qy = q + (long)(y + QROW0) * QL + QLANE0;
+        if (y > y0) quantise_row(image, W, H, scale, y + QLAST, q + (long)(y + QLAST) * QL, QL, LO);
+        __global const int *qy = q + (long)y * QL + QLANE0;
         int2 d[NDIR];
         int4 ti[NDIR];
         __global long *cur[NDIR];

@@ -16,26 +16,28 @@ Pipeline (``kernels/polygon_splat.cl``)
    its pixel count, exact by Pick's theorem.
 2. Splat the terms into one buffer per edge direction (eq. 9). Radius map: one work item per
    tile of pixels; the tiles of one launch lie further apart than any kernel reaches, so adds
-   are plain, except the atomic ones near the border where folded terms land. Uniform radius:
-   a gather from the fixed-point image, fused into step 3.
+   are plain, except the atomic ones near the border where folded terms land.
 3. Prefix sum along each direction (eq. 10) in column chunks (every pass streams row
    segments), a carry per line and chunk, then the sum over directions plus carries and the
    vertical prefix sum (eq. 11) in one pass that writes the colour image.
+
+A uniform radius takes another route (:class:`~runtime_cl.polygon_uniform.UniformBlur`): every
+pixel shares one kernel, so step 2 is a gather of its terms and steps 2-3 fuse into one walk over
+the rows, all channels at once.
 
 Exactness. All sums are integers in wrapping 64-bit arithmetic, so every prefix sum is exact
 and no result depends on the order of additions (runs are bit-identical). Radius map: pixel
 ``i`` splats ``q_i = rint(colour_i 2^e / area_i)`` with ``2^(62 - e)`` above the total
 ``|colour|`` of the image, so no output can overflow; an output covered by ``n`` kernels is off
 by at most ``n 2^-(e+1) <= n N mean|colour| 2^-62`` for ``N`` pixels (4e-8 of the mean colour
-for 1920x1080 and n = 1e5) before its rounding to float32. Uniform radius: ``q = rint(colour 2^e)``
-in int32 (``2^e max|colour| <= 2^30``), summed over the kernel and divided by its area at the
-end: off by at most ``2^-(e+1) <= 2^-30`` of the largest colour. Radius 0 returns the image.
+for 1920x1080 and n = 1e5) before its rounding to float32. Uniform radius: the exact sum of
+``q = rint(colour 2^e)`` over the kernel, divided by its area at the end (see
+:func:`~runtime_cl.polygon_uniform.uniform_exponent`). Radius 0 returns the image.
 
 Borders. The buffers cover exactly the image, whatever the radius: a term outside is moved
 along its direction to where its line enters the image, or into a per-column sum of the rows
 above (see the kernel file). Kernels larger than the image are therefore exact, and the
-memory and the prefix-sum work do not grow with the radius. (The uniform path instead pads
-its buffers by the kernel's extent, which costs a few percent at radius 60 on 1024^2.)
+memory and the prefix-sum work do not grow with the radius.
 
 Layers. A :class:`PolygonCanvas` is one accumulation target: several can be filled from the
 same splatter (e.g. one per depth layer, each with its own pixels) and resolved separately.
@@ -53,11 +55,13 @@ from .errors import InputError
 from .polygon_kernel import edge_direction
 from .polygon_radii import MAX_RADIUS, BUCKETS, RadiusTable
 from .polygon_scale import ScaleOracle
+from .polygon_uniform import UniformBlur, non_finite_error
 
 __all__ = ["PolygonSplatter", "PolygonCanvas", "MAX_RADIUS", "fixed_point_exponents"]
 
 CB, LOCAL = 8, 8   # columns per vertical-sum work item; work-group size of wide launches
-SERIAL = ("splat", "prefix_local", "prefix_carry", "comb_prefix", "quantise")  # few, long items
+ROW = 128          # least width of a splatting tile (its rows are the terms' write streams)
+SERIAL = ("splat", "prefix_local", "prefix_carry", "comb_prefix")  # few, long items
 
 
 def fixed_point_exponents(bound) -> np.ndarray:
@@ -121,6 +125,7 @@ class PolygonSplatter:
         self.table = RadiusTable(self.oracle, self.directions, self._upload)
         self._kernels: dict = {}
         self._dirs = self._upload(self.directions)
+        self._uniform = UniformBlur(self)
 
     def kernel_terms(self, radius: float):
         """:class:`~runtime_cl.polygon_terms.PolygonTerms` used at ``radius`` (float32-rounded)."""
@@ -141,8 +146,7 @@ class PolygonSplatter:
             opts = [f"-DNC={channels}", f"-DNDIR={len(self.directions)}", f"-DAMAX={self.amax}",
                     f"-DBMAX={self.bmax}", f"-DCB={CB}", f"-DCHUNK={self.chunk}", f"-DBUCKETS={BUCKETS}"]
             prg, _ = self.device.program("polygon_splat.cl", opts)
-            for n in ("splat", "quantise", "prefix_local", "prefix_carry", "comb_exit", "comb_prefix",
-                      "vsum"):
+            for n in ("splat", "prefix_local", "prefix_carry", "comb_exit", "comb_prefix", "vsum"):
                 self._kernels[(channels, n)] = self._cl.Kernel(prg, n)
         return self._kernels[(channels, name)]
 
@@ -163,17 +167,22 @@ class PolygonSplatter:
 
     # ----------------------------------------------------------------- validation
     @staticmethod
-    def _image(image) -> np.ndarray:
+    def _image_array(image) -> np.ndarray:
+        """The image as C-contiguous float32 (H, W, C), shape checked (values not)."""
         a = np.asarray(image)
         if a.ndim == 2:
             a = a[..., None]
         if a.ndim != 3 or not 1 <= a.shape[2] <= 4 or 0 in a.shape:
             raise InputError(f"image: shape {np.shape(image)} is not (H, W) or (H, W, C<=4); "
                              "pass an RGB(A) array")
-        a = np.ascontiguousarray(a, np.float32)
+        return np.ascontiguousarray(a, np.float32)
+
+    @classmethod
+    def _image(cls, image) -> np.ndarray:
+        """:meth:`_image_array`, and every value finite."""
+        a = cls._image_array(image)
         if not (np.isfinite(a.max()) and np.isfinite(a.min())):   # NaN propagates through max
-            raise InputError(f"image: {int((~np.isfinite(a)).sum())} non-finite value(s); "
-                             "replace NaN/inf colours before blurring")
+            raise non_finite_error(a)
         return a
 
     @staticmethod
@@ -249,17 +258,20 @@ class PolygonSplatter:
         span = table.span(float(r.max()))
         # Tiles one launch runs are `period` tiles apart, more than a kernel's span: plain adds
         # cannot race. `splat` uses atomics only where folded terms land (the border zone).
-        tile = max(32, span // 2)
-        period = 2 + span // tile
+        # Rows of at least ROW pixels: each term's writes stream along them.
+        th = max(32, span // 2)
+        tw = max(ROW, th)
+        px, py = 2 + span // tw, 2 + span // th
         unit = np.ldexp(1.0, canvas.exponent)[None, :] / table.area[:, None]   # 2^e / area
         args = [self._upload(img), self._upload(r), np.int32(w), np.int32(h), table.breaks,
                 np.int32(len(table)), table.bucket, table.start, table.packed, self._upload(unit),
-                self._dirs, canvas.bufs, canvas.comb, np.int32(tile), np.int32(period)]
-        n_tx, n_ty = -(-w // tile), -(-h // tile)
+                self._dirs, canvas.bufs, canvas.comb, np.int32(tw), np.int32(th), np.int32(px),
+                np.int32(py)]
+        n_tx, n_ty = -(-w // tw), -(-h // th)
         events = []
-        for cy in range(min(period, n_ty)):
-            for cx in range(min(period, n_tx)):
-                nx, ny = -(-(n_tx - cx) // period), -(-(n_ty - cy) // period)
+        for cy in range(min(py, n_ty)):
+            for cx in range(min(px, n_tx)):
+                nx, ny = -(-(n_tx - cx) // px), -(-(n_ty - cy) // py)
                 events.append(self._launch(c, "splat", nx * ny, *args, np.int32(cx), np.int32(cy),
                                            np.int32(nx)))
         return events
@@ -284,7 +296,7 @@ class PolygonSplatter:
                                            np.int64(k * self._carry_plane(w, h, c)), canvas.comb))
         pairs = self.amax * (self.amax + 1) // 2
         events.append(self._launch(c, "comb_prefix", pairs * c, canvas.comb, np.int32(w)))
-        out, ev = self._sum(c, canvas.bufs, w, h, 0, 0, carry, canvas.comb, self.amax,
+        out, ev = self._sum(c, canvas.bufs, w, h, carry, canvas.comb,
                             np.ldexp(1.0, -canvas.exponent), fixed)
         return out, events, ev
 
@@ -292,37 +304,25 @@ class PolygonSplatter:
         """ulongs of one direction's carry table (``prefix_carry``: rows padded by CPAD)."""
         return -(-bw // self.chunk) * self.amax * (bh + 2 * self.bmax * self.chunk) * c
 
-    def _prefix_sums(self, c, bufs, bw, bh, gather=None):
-        """Chunked directional prefix sums of every direction (eq. 10); (carries, events).
-
-        ``gather = (q, qw, dxmax, dymax, terms, index)``: uniform path, the values are gathered
-        from the fixed-point image ``q`` with the kernel's terms instead of read from ``bufs``.
-        """
+    def _prefix_sums(self, c, bufs, bw, bh):
+        """Chunked directional prefix sums of every direction (eq. 10); (carries, events)."""
         cplane, plane = self._carry_plane(bw, bh, c), bw * bh * c
         carry = self._alloc(len(self.directions) * cplane * 8, "prefix carries")
         events = []
         for k, (a, b) in enumerate(self.directions):
-            if gather is None:
-                extra = [self._dirs, 0, 0, 0, self._dirs, 0, 0, 0]
-            else:
-                q, qw, dxmax, dymax, terms, index = gather
-                extra = [q, qw, dxmax, dymax, terms, index[k], index[k + 1] - index[k], 1]
-            extra = [np.int32(v) if isinstance(v, (int, np.integer)) else v for v in extra]
             events.append(self._launch(c, "prefix_local", -(-bw // self.chunk), bufs,
                                        np.int64(k * plane), np.int32(bw), np.int32(bh), np.int32(a),
-                                       np.int32(b), *extra))
+                                       np.int32(b)))
             events.append(self._launch(c, "prefix_carry", 1, bufs, np.int64(k * plane), np.int32(bw),
                                        np.int32(bh), np.int32(a), np.int32(b), carry,
                                        np.int64(k * cplane)))
         return carry, events
 
-    def _sum(self, c, bufs, bw, bh, xo, top, carry, comb, n_comb, factor, fixed, hw=None):
-        h, w = hw or (bh, bw)
+    def _sum(self, c, bufs, w, h, carry, comb, factor, fixed):
         out = np.empty((h, w, c), np.int64 if fixed else np.float32)
         dev = self._alloc(out.nbytes, "output image")
-        ev = self._launch(c, "vsum", -(-w // CB), bufs, self._dirs, np.int32(bw), np.int32(bh),
-                          np.int32(xo), np.int32(top), np.int32(w), np.int32(h), carry, comb,
-                          np.int32(n_comb), self._upload(np.asarray(factor, np.float64)), dev, dev,
+        ev = self._launch(c, "vsum", -(-w // CB), bufs, self._dirs, np.int32(w), np.int32(h), carry,
+                          comb, self._upload(np.asarray(factor, np.float64)), dev, dev,
                           np.int32(1 if fixed else 0))
         self._cl.enqueue_copy(self.device.queue, out, dev)
         return out, ev
@@ -349,15 +349,17 @@ class PolygonSplatter:
             Event-profiled kernel times (``*_ms``, ``kernel_ms``), ``wall_ms`` (this call),
             ``exponent``, ``area`` (uniform).
         """
-        img = self._image(image)
+        start = time.perf_counter()
+        img = self._image_array(image)
         h, w, c = img.shape
         r = self._radius(radius, (h, w))
-        start = time.perf_counter()
         if r.ndim == 0 and r == 0 and not fixed:
+            img = self._image(img)
             out, info = img.copy(), {"exponent": np.zeros(c, np.int64), "area": 1}   # the delta
         elif r.ndim == 0:
-            out, info = self._render_uniform(img, float(r), fixed)
+            out, info = self._uniform.render(img, float(r), fixed)   # checks the values itself
         else:
+            img = self._image(img)
             canvas = self.canvas(h, w, c, float(np.abs(img).sum(dtype=np.float64)))
             splat = self._splat(canvas, img, r)
             out, events, ev = self._resolve(canvas, fixed)
@@ -366,28 +368,3 @@ class PolygonSplatter:
         info["kernel_ms"] = sum(v for k, v in info.items() if k.endswith("_ms"))
         info["wall_ms"] = (time.perf_counter() - start) * 1e3
         return (out if np.ndim(image) == 3 else out[..., 0]), info
-
-    def _render_uniform(self, img, radius, fixed):
-        """One kernel for every pixel: ``q = rint(colour 2^e)`` (int32, ``2^e max|colour| <=
-        2^30``) gathered straight into the directional prefix sums over a region padded by the
-        kernel, the vertical sum, and the division by the area at the end."""
-        h, w, c = img.shape
-        t = self.table.at(radius)
-        peak = max(float(img.max()), -float(img.min()))
-        e = min(30 - math.frexp(peak)[1], 126) if peak > 0 else 0
-        dxmin, dxmax, dymin, dymax = int(t.dx.min()), int(t.dx.max()), int(t.dy.min()), int(t.dy.max())
-        x0, y0 = min(0, dxmin), min(0, dymin)            # region origin (image coordinates)
-        bw, bh = w - x0, h + max(0, dymax) - y0
-        bufs = self._alloc(len(self.directions) * bw * bh * c * 8, "direction buffers")
-        qw, qh = bw + dxmax - dxmin, bh + dymax - dymin   # q pixel (x, y) = region (x - dxmax, y - dymax)
-        q = self._alloc(qw * qh * c * 4, "fixed-point image")
-        events = [self._launch(c, "quantise", qh, self._upload(img), np.int32(w), np.int32(h),
-                               self._upload(np.full(c, 2.0 ** e, np.float32)), q, np.int32(qw),
-                               np.int32(dxmax - x0), np.int32(dymax - y0))]
-        index = np.searchsorted(t.direction, np.arange(len(self.directions) + 1))
-        terms = self._upload(np.stack([t.direction, t.dx, t.dy, t.value], 1).astype(np.int32))
-        carry, more = self._prefix_sums(c, bufs, bw, bh, (q, qw, dxmax, dymax, terms, index))
-        out, ev = self._sum(c, bufs, bw, bh, -x0, -y0, carry, bufs, 0,
-                            np.full(c, np.ldexp(1.0, -e) / t.area), fixed, hw=(h, w))
-        return out, {"prefix_ms": event_ms(*events, *more), "sum_ms": event_ms(ev),
-                     "exponent": np.full(c, e), "area": t.area}

@@ -14,7 +14,7 @@
 //   * x >= W, or y >= H with b >= 0: never reach the image, dropped.
 // Likewise a line with b < 0 that leaves the image upwards carries its running sum on as a comb
 // (`comb_exit`); terms further along it, above the image, were folded into combs already.
-// The uniform path (`quantise`, `prefix_local` with gather) pads its region by the kernel instead.
+// (A uniform radius has its own one-pass kernel, polygon_uniform.cl.)
 //
 // -D constants: NC (channels), NDIR (directions), AMAX (largest a), BMAX (largest |b|), CB
 // (columns per summing work item), CHUNK (prefix-sum chunk width), BUCKETS (radius lookup
@@ -72,9 +72,9 @@ inline int find_entry(__global const float *breaks, int n, __global const int *b
     return e;
 }
 
-// Spatially varying radius: each work item splats one TILE x TILE tile of pixels. One launch
-// runs the tiles (cx + i P, cy + j P): their kernels (at most SPAN pixels wide or high, the
-// host's P) cannot overlap, so plain adds do not race.
+// Spatially varying radius: each work item splats one TW x TH tile of pixels. One launch runs
+// the tiles (cx + i PX, cy + j PY): their kernels (at most the host's span wide or high) cannot
+// overlap, so plain adds do not race.
 // q = rint(colour * unit[entry, c]) with unit = 2^e / area (one double product per channel).
 __kernel void splat(__global const float *image,          // H x W x NC
                     __global const float *radius,         // H x W
@@ -86,16 +86,16 @@ __kernel void splat(__global const float *image,          // H x W x NC
                     __global const int2 *dirs,            // NDIR
                     __global ulong *bufs,                 // NDIR x H x W x NC
                     __global ulong *comb,                 // AMAX x W x NC
-                    const int TILE, const int P, const int cx, const int cy, const int n_tx)
+                    const int TW, const int TH, const int PX, const int PY, const int cx,
+                    const int cy, const int n_tx)
 {
     const int i = get_global_id(0);
-    const int tx = cx + (i % n_tx) * P, ty = cy + (i / n_tx) * P;
-    const int x0 = tx * TILE, y0 = ty * TILE;
+    const int x0 = (cx + (i % n_tx) * PX) * TW, y0 = (cy + (i / n_tx) * PY) * TH;
     if (x0 >= W || y0 >= H) return;
     float last_r = -1.0f;
     int e = 0;
-    for (int y = y0; y < min(y0 + TILE, H); ++y)
-    for (int x = x0; x < min(x0 + TILE, W); ++x) {
+    for (int y = y0; y < min(y0 + TH, H); ++y)
+    for (int x = x0; x < min(x0 + TW, W); ++x) {
         const size_t p = (size_t)y * W + x;
         const float r = radius[p];
         if (r != last_r) { e = find_entry(breaks, n_entries, bucket, r); last_r = r; }
@@ -118,35 +118,21 @@ __kernel void splat(__global const float *image,          // H x W x NC
 }
 
 // Directional prefix sum (MHU21 eq. 10) along d = (a, b) in column chunks, so every pass
-// streams whole row segments. A region of BW x BH pixels (buffer `buf`, row-major, NC per
+// streams whole row segments. An image of W x H pixels (buffer `buf`, row-major, NC per
 // pixel) is cut into chunks of CHUNK columns (a multiple of every a and of CB).
 // prefix_local: within its chunk each work item computes S1(x, y) = S1(x - a, y - b) + G(x, y),
-// starting from 0 where the line enters the chunk (rows in the order b asks for). G is the
-// buffer itself (radius map: the splatted terms), or for a uniform radius (`gather`) the sum
-// sum_t value_t q(p - offset_t) over the fixed-point image `q` (see `quantise`), whose pixel
-// (x, y) holds region pixel (x - DXMAX, y - DYMAX).
+// starting from 0 where the line enters the chunk (rows in the order b asks for); G is the
+// buffer itself (the splatted terms).
 // prefix_carry: carry[c][u][y] = the full prefix just before the line through (x0_c + u, y)
 // enters chunk c, i.e. S(x0_c + u - a, y - b), = S1 there + carry[c-1][u][y - b CHUNK / a].
-// Carry rows run from -CPAD to BH + CPAD (zeros outside the region) so readers need no checks.
+// Carry rows run from -CPAD to H + CPAD (zeros outside the image) so readers need no checks.
 // The full prefix is S(x, y) = S1(x, y) + carry[c][(x - x0) % a][y - b ((x - x0) / a)];
 // `vsum` adds it on the fly.
 #define CPAD (BMAX * (CHUNK / 1))
 #define CROWS(BH) ((BH) + 2 * CPAD)
 
-inline void add_scaled(ulong *acc, __global const int *src, const int n, const int w) {
-    // values are +-1 or +-2 in practice: adds and shifts vectorise, 64-bit products do not
-    if (w == 1) for (int j = 0; j < n; ++j) acc[j] += (ulong)(long)src[j];
-    else if (w == -1) for (int j = 0; j < n; ++j) acc[j] -= (ulong)(long)src[j];
-    else if (w == 2) for (int j = 0; j < n; ++j) acc[j] += (ulong)(long)src[j] << 1;
-    else if (w == -2) for (int j = 0; j < n; ++j) acc[j] -= (ulong)(long)src[j] << 1;
-    else for (int j = 0; j < n; ++j) acc[j] += (ulong)((long)src[j] * w);
-}
-
 __kernel void prefix_local(__global ulong *buf, const long base, const int BW, const int BH,
-                           const int a, const int b,
-                           __global const int *q, const int QW, const int DXMAX, const int DYMAX,
-                           __global const int4 *terms, const int term_first, const int n_terms,
-                           const int gather)
+                           const int a, const int b)
 {
     const int x0 = get_global_id(0) * CHUNK;
     if (x0 >= BW) return;
@@ -156,15 +142,7 @@ __kernel void prefix_local(__global ulong *buf, const long base, const int BW, c
     for (int i = 0; i < BH; ++i) {
         const int y = b >= 0 ? i : BH - 1 - i;
         __global ulong *row = buf + ((size_t)y * BW + x0) * NC;
-        if (gather) {
-            for (int j = 0; j < n; ++j) acc[j] = 0;
-            for (int s = 0; s < n_terms; ++s) {
-                const int4 tm = terms[term_first + s];
-                add_scaled(acc, q + ((size_t)(y - tm.z + DYMAX) * QW + (x0 - tm.y + DXMAX)) * NC, n, tm.w);
-            }
-        } else {
-            for (int j = 0; j < n; ++j) acc[j] = row[j];
-        }
+        for (int j = 0; j < n; ++j) acc[j] = row[j];
         const int yp = y - b;
         if (b == 0) {
             for (int j = an; j < n; ++j) acc[j] += acc[j - an];
@@ -173,24 +151,6 @@ __kernel void prefix_local(__global ulong *buf, const long base, const int BW, c
             for (int j = an; j < n; ++j) acc[j] += prev[j - an];
         }
         for (int j = 0; j < n; ++j) row[j] = acc[j];
-    }
-}
-
-// The fixed-point image for the uniform path: q = rint(colour * 2^e) in int32 (an exact float
-// scaling; e keeps |q| < 2^31), zero outside the image; q pixel (x, y) is image pixel
-// (x - QX, y - QY). One row per work item.
-__kernel void quantise(__global const float *image, const int W, const int H,
-                       __constant float *scale, __global int *q, const int QW, const int QX,
-                       const int QY)
-{
-    const int y = get_global_id(0), iy = y - QY;
-    __global int *row = q + (size_t)y * QW * NC;
-    const int inside_row = iy >= 0 && iy < H;
-    for (int x = 0; x < QW; ++x) {
-        const int ix = x - QX;
-        const int inside = inside_row && ix >= 0 && ix < W;
-        for (int c = 0; c < NC; ++c)
-            row[x * NC + c] = inside ? (int)rint(image[((size_t)iy * W + ix) * NC + c] * scale[c]) : 0;
     }
 }
 
@@ -257,48 +217,45 @@ __kernel void comb_prefix(__global ulong *comb, const int W)
 }
 
 // Vertical prefix sum (MHU21 eq. 11) of the sum over directions (eq. 9) of the full directional
-// prefixes, plus the combs on row 0, converted to colour: out = value * factor (2^-e, and
-// 1 / area for a uniform radius). Image pixel (x, y) is region pixel (x + XO, y + TOP); rows
-// above the image (TOP of them) only feed the sum. CB columns per work item; with `fixed` != 0
-// the int64 sums are written instead (tests compare them bit for bit).
-__kernel void vsum(__global const ulong *bufs, __global const int2 *dirs, const int BW, const int BH,
-                   const int XO, const int TOP, const int W, const int H,
-                   __global const ulong *carry, __global const ulong *comb, const int n_comb,
+// prefixes, plus the combs on row 0, converted to colour: out = value * factor (2^-e). CB
+// columns per work item; with `fixed` != 0 the int64 sums are written instead (tests compare
+// them bit for bit).
+__kernel void vsum(__global const ulong *bufs, __global const int2 *dirs, const int W, const int H,
+                   __global const ulong *carry, __global const ulong *comb,
                    __constant double *factor, __global float *out, __global long *fixed_out,
                    const int fixed)
 {
     const int x0 = get_global_id(0) * CB;
     if (x0 >= W) return;
     const int n = min(CB, W - x0);
-    const size_t plane = (size_t)BW * BH * NC;
-    const size_t cplane = (size_t)((BW + CHUNK - 1) / CHUNK) * AMAX * CROWS(BH) * NC;
+    const size_t plane = (size_t)W * H * NC;
+    const size_t cplane = (size_t)((W + CHUNK - 1) / CHUNK) * AMAX * CROWS(H) * NC;
     ulong s[CB * NC];
     long cbase[NDIR * CB];   // carry index of (column, row 0)
     for (int i = 0; i < CB; ++i) {
-        const int x = min(x0 + i, W - 1) + XO, ch = x / CHUNK, off = x - ch * CHUNK;
+        const int x = min(x0 + i, W - 1), ch = x / CHUNK, off = x - ch * CHUNK;
         for (int k = 0; k < NDIR; ++k) {
             const int2 d = dirs[k];
             cbase[k * CB + i] = (long)k * cplane
-                + (((long)ch * d.x + off % d.x) * CROWS(BH) + CPAD - d.y * (off / d.x)) * NC;
+                + (((long)ch * d.x + off % d.x) * CROWS(H) + CPAD - d.y * (off / d.x)) * NC;
         }
         for (int c = 0; c < NC; ++c) {
             ulong v = 0;
             if (i < n)
-                for (int a = 0; a < n_comb; ++a) v += comb[((size_t)a * W + x0 + i) * NC + c];
+                for (int a = 0; a < AMAX; ++a) v += comb[((size_t)a * W + x0 + i) * NC + c];
             s[i * NC + c] = v;
         }
     }
-    for (int y = 0; y < TOP + H; ++y) {
+    for (int y = 0; y < H; ++y) {
         for (int k = 0; k < NDIR; ++k) {
-            __global const ulong *row = bufs + k * plane + ((size_t)y * BW + x0 + XO) * NC;
+            __global const ulong *row = bufs + k * plane + ((size_t)y * W + x0) * NC;
             for (int i = 0; i < n * NC; ++i) s[i] += row[i];
             for (int i = 0; i < n; ++i) {
                 __global const ulong *cr = carry + cbase[k * CB + i] + (long)y * NC;
                 for (int c = 0; c < NC; ++c) s[i * NC + c] += cr[c];
             }
         }
-        if (y < TOP) continue;
-        const size_t o = ((size_t)(y - TOP) * W + x0) * NC;
+        const size_t o = ((size_t)y * W + x0) * NC;
         if (fixed) {
             for (int i = 0; i < n * NC; ++i) fixed_out[o + i] = (long)s[i];
         } else {

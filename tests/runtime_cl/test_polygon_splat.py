@@ -10,7 +10,7 @@ from polygon_reference import shape, splat_fixed, splat_float64
 
 from runtime_cl.errors import InputError
 from runtime_cl.polygon_kernel import scale_polygon
-from runtime_cl.polygon_splat import PolygonSplatter
+from runtime_cl.polygon_splat import ROW, PolygonSplatter
 
 _SPLATTERS = {}
 
@@ -150,3 +150,18 @@ def test_bad_input_names_the_argument():
         sp.render(bad_img, rad)
     with pytest.raises(InputError, match="image: shape"):
         sp.render(np.ones((4, 6, 7), np.float32), 1.0)
+
+
+def test_radius_map_tiles_in_parallel_are_brute_force_exact():
+    """A wide image: launches of several tiles each (plain adds in the tiles, atomics where
+    folded terms land), still the brute-force integers, run after run."""
+    rng = np.random.default_rng(12)
+    sp = splatter("heart12")
+    h, w = 14, 600
+    img = scene(rng, h, w)
+    rad = (rng.random((h, w)) * 30).astype(np.float32)
+    span = sp.table.ensure(30.0).span(float(rad.max()))
+    assert -(-w // ROW) > 2 * (2 + span // ROW)              # > 2 tiles per launch
+    out, info = sp.render(img, rad, fixed=True)
+    np.testing.assert_array_equal(out, splat_fixed(img, rad, sp.polygon, info["exponent"][0]))
+    np.testing.assert_array_equal(sp.render(img, rad, fixed=True)[0], out)

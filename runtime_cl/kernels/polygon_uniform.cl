@@ -1,0 +1,262 @@
+// Uniform-radius polygonal blur in one pass per band of rows (runtime_cl/polygon_uniform.py).
+//
+// Every pixel shares one kernel, so MHU21's directional differences (eq. 9) are a few fixed taps
+// on the fixed-point image q: G_d(p) = sum_t v_t q(p - o_t), no splatting. One work item owns a
+// band of rows, walks it top down and keeps, per edge direction d = (a, b), the directional
+// prefix sums (eq. 10) of the last |b| rows in a ring, and the vertical sum (eq. 11) per column:
+//   b > 0: P(x, y) = P(x - a, y - b) + G(x, y)                 (the row b above)
+//   b < 0: U(x, y) = U(x + a, y + b) + G(x, y),  P = G - U      (the suffix along +d, from the
+//          row |b| above: every line's terms sum to zero, so the prefix is minus the rest)
+//   b = 0: P(x, y) = P(x - 1, y) + G(x, y)                     (along the row, serially)
+// Out(x, y) = Out(x, y - 1) + sum_d P_d(x, y). A band starts from the exact state of the row
+// above it: P (or U) from the taps of the directional prefix of d's terms (`itaps`), and the
+// vertical sum from the kernel's pixel runs on row prefix sums of q (`runs`).
+//
+// Lanes: region lane L is column X0 + L / NC, channel L % NC (the image's interleaving), so all
+// channels go through one pass; 16 lanes per vector. Region columns [X0, X1) cover every column
+// where some G_d is non-zero; q holds zeros outside the image and covers every tap.
+// Exactness: G in int32 (the host bounds sum |v_t| |q| < 2^31), everything else in wrapping
+// 64-bit integers, so sums are exact and independent of order.
+//
+// -D constants: NC (channels), NDIR (directions), RB (ring rows = max |b| + 1), PAD (zero lanes
+// either side of a ring row, a multiple of 16 >= max a * NC), CH (vectors per step of the image's
+// columns: the taps' offsets are read once per CH vectors).
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+
+// Vectors at any element-aligned address with plain loads and stores (PoCL calls, rather than
+// inlines, vloadn/vstoren).
+typedef int int16u __attribute__((ext_vector_type(16), aligned(4)));
+typedef long long16u __attribute__((ext_vector_type(16), aligned(8)));
+typedef float float16u __attribute__((ext_vector_type(16), aligned(4)));
+typedef uint uint16u __attribute__((ext_vector_type(16), aligned(4)));
+#define LOADI(p) (*(__global const int16u *)(p))
+#define LOADL(p) (*(__global const long16u *)(p))
+#define STOREL(p, v) (*(__global long16u *)(p) = (v))
+
+// Largest |colour| of each row, as float bits: compared as integers, NaN and inf rank above
+// every finite value, so one maximum also tells whether the row is finite. One row per item.
+__kernel void row_peak(__global const float *image, const int n, __global uint *peak)
+{
+    const int y = get_global_id(0);
+    __global const uint *row = (__global const uint *)image + (size_t)y * n;
+    uint16 m = 0;
+    int l = 0;
+    for (; l + 16 <= n; l += 16) m = max(m, *(__global const uint16u *)(row + l) & 0x7fffffffu);
+    uint s = max(max(max(m.s0, m.s1), max(m.s2, m.s3)), max(max(m.s4, m.s5), max(m.s6, m.s7)));
+    s = max(s, max(max(max(m.s8, m.s9), max(m.sa, m.sb)), max(max(m.sc, m.sd), max(m.se, m.sf))));
+    for (; l < n; ++l) s = max(s, row[l] & 0x7fffffffu);
+    peak[y] = s;
+}
+
+// q row of image row y: rint(colour * scale) (an exact float scaling), zeros outside the image;
+// lane l of the row is image lane l - LO of that row (LO zero lanes left of the image).
+inline void quantise_row(__global const float *image, const int W, const int H, const float scale,
+                         const int y, __global int *row, const int QL, const int LO) {
+    const int inside = y >= 0 && y < H, hi = inside ? LO + W * NC : 0;
+    __global const float *src = image + (size_t)(inside ? y : 0) * W * NC - LO;
+    int l = 0;
+    for (; l < (inside ? LO : QL); ++l) row[l] = 0;
+    for (; l + 16 <= hi; l += 16)
+        *(__global int16u *)(row + l) =
+            convert_int16_rte(*(__global const float16u *)(src + l) * scale);
+    for (; l < hi; ++l) row[l] = convert_int_rte(src[l] * scale);
+    for (; l < QL; ++l) row[l] = 0;
+}
+
+inline int slot(int y) { return ((y % RB) + RB) % RB; }
+
+// Sum over `n` taps (q offset, weight) at q + base, in int64, for one 16-lane vector.
+inline long16 taps64(__global const int *q, const long base, __global const int2 *tap,
+                     const int n) {
+    long16 s = 0;
+    for (int t = 0; t < n; ++t) {
+        const int2 tp = tap[t];
+        const long16 x = convert_long16(LOADI(q + base + tp.x));
+        if (tp.y == 1) s += x; else if (tp.y == -1) s -= x; else s += x * (long)tp.y;
+    }
+    return s;
+}
+
+// G_d at the 16 lanes from qv: taps (first, n with weight +1, then -1, then others in tval).
+inline int16 gather(__global const int *qv, __global const int *toff, __global const int *tval,
+                    const int4 ti) {
+    int16 g = 0;
+    int t = ti.x;
+    for (const int e = t + ti.y; t < e; ++t) g += LOADI(qv + toff[t]);
+    for (const int e = t + ti.z; t < e; ++t) g -= LOADI(qv + toff[t]);
+    for (const int e = t + ti.w; t < e; ++t) g += LOADI(qv + toff[t]) * tval[t];
+    return g;
+}
+
+// The same for CH consecutive vectors: each tap's offset is read once for all of them.
+inline void gather_chunk(__global const int *qv, __global const int *toff,
+                         __global const int *tval, const int4 ti, int16 *g) {
+    for (int c = 0; c < CH; ++c) g[c] = 0;
+    int t = ti.x;
+    for (const int e = t + ti.y; t < e; ++t) {
+        __global const int *p = qv + toff[t];
+        for (int c = 0; c < CH; ++c) g[c] += LOADI(p + 16 * c);
+    }
+    for (const int e = t + ti.z; t < e; ++t) {
+        __global const int *p = qv + toff[t];
+        for (int c = 0; c < CH; ++c) g[c] -= LOADI(p + 16 * c);
+    }
+    for (const int e = t + ti.w; t < e; ++t) {
+        __global const int *p = qv + toff[t];
+        for (int c = 0; c < CH; ++c) g[c] += LOADI(p + 16 * c) * tval[t];
+    }
+}
+
+// Advances direction d at vector v of the row (ring rows cur, prv already offset by -a NC for
+// b > 0 and +a NC for b < 0) and returns its P; b = 0 runs along the row, lane by lane, with
+// the running sums per channel `run` and the channel `ch` of the next lane.
+inline long16 advance(const int2 d, const int16 g, const int v, __global long *cur,
+                      __global const long *prv, long *run, int *ch) {
+    const long16 gl = convert_long16(g);
+    if (d.y > 0) {
+        const long16 p = LOADL(prv + 16 * v) + gl;
+        STOREL(cur + 16 * v, p);
+        return p;
+    }
+    if (d.y < 0) {
+        const long16 u = LOADL(prv + 16 * v) + gl;
+        STOREL(cur + 16 * v, u);
+        return gl - u;
+    }
+    int gs[16];
+    long ps[16];
+    *(int16 *)gs = g;
+    int c = *ch;
+    for (int j = 0; j < 16; ++j) {
+        run[c] += gs[j];
+        ps[j] = run[c];
+        c = c + 1 == NC ? 0 : c + 1;
+    }
+    *ch = c;
+    return *(long16 *)ps;
+}
+
+// One work item per band of rows [bands[i], bands[i + 1]); see the file comment.
+// The band quantises the image rows its taps read into its own slab of q, each just before its
+// first use (rows y0 - QROW0 .. y1 - 1 + QLAST): q index of (row y, region lane L) is
+// (y - y0 + QROW0) * QL + QLANE0 + L in the slab.
+// scratch per band: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
+// row prefix of q (QL + NC).
+__kernel void uniform_bands(__global const float *image, const int W, const int H,
+                            const float scale, const int LO,
+                            __global int *qall, const long slab_stride, const int QL,
+                            const int QROW0, const int QLAST, const int QLANE0,
+                            const int nvec, const int vc0, const int vc1, const int out_lanes,
+                            __global const int *bands,
+                            __global const int2 *dirs,
+                            __global const int4 *tinfo, __global const int *toff,
+                            __global const int *tval,
+                            __global const int *istart, __global const int2 *itaps,
+                            __global const int4 *runs, const int n_runs,
+                            __global long *scratch, const long scratch_stride,
+                            const double factor, __global float *out, __global long *fixed_out,
+                            const int fixed)
+{
+    const int band = get_global_id(0), y0 = bands[band], y1 = bands[band + 1];
+    __global int *q = qall + band * slab_stride - (long)(y0 - QROW0) * QL;   // q + y * QL: row y
+    const int RL = nvec * 16, RLP = RL + 2 * PAD;
+    __global long *ring = scratch + band * scratch_stride;
+    __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
+    __global long *hq = acc + (vc1 - vc0) * 16;
+    if (y0 >= y1) return;
+    for (size_t i = 0; i < (size_t)NDIR * RB * RLP; ++i) ring[i] = 0;
+    for (int y = y0 - QROW0; y <= y0 + QLAST; ++y)   // every row the start and row y0 read
+        quantise_row(image, W, H, scale, y, q + (long)y * QL, QL, LO);
+
+    // Ring state of rows y0 - |b| .. y0 - 1: the directional prefix of d's terms as taps.
+    for (int k = 0; k < NDIR; ++k) {
+        const int b = dirs[k].y, nb = b < 0 ? -b : b;
+        const int va = b < 0 ? vc0 : 0, vb = b < 0 ? nvec : vc1;
+        for (int y = y0 - nb; y < y0; ++y) {
+            __global long *row = ring + (size_t)(k * RB + slot(y)) * RLP + PAD;
+            const long base = (long)y * QL + QLANE0;
+            for (int v = va; v < vb; ++v)
+                STOREL(row + 16 * v, taps64(q, base + 16 * v, itaps + istart[k],
+                                            istart[k + 1] - istart[k]));
+        }
+    }
+    // Column sums of row y0 - 1: per kernel row ky, its runs [dx0, dx1] of pixels as differences
+    // of the exclusive row prefix hq of q row y0 - 1 - ky (runs come grouped by ky).
+    for (int v = vc0; v < vc1; ++v) STOREL(acc + 16 * (v - vc0), (long16)0);
+    for (int r = 0; r < n_runs; ++r) {
+        const int4 run = runs[r];
+        if (r == 0 || runs[r - 1].x != run.x) {
+            __global const int *qrow = q + (long)(y0 - 1 - run.x) * QL;
+            long sum[NC];
+            for (int c = 0; c < NC; ++c) hq[c] = sum[c] = 0;
+            for (int j = 0; j < QL; j += NC)
+                for (int c = 0; c < NC; ++c) hq[j + NC + c] = sum[c] += qrow[j + c];
+        }
+        for (int v = vc0; v < vc1; ++v) {
+            const int j = QLANE0 + 16 * v;
+            __global long *a = acc + 16 * (v - vc0);
+            STOREL(a, LOADL(a) + LOADL(hq + j - (run.y - 1) * NC) - LOADL(hq + j - run.z * NC));
+        }
+    }
+
+    for (int y = y0; y < y1; ++y) {
+        if (y > y0) quantise_row(image, W, H, scale, y + QLAST, q + (long)(y + QLAST) * QL, QL, LO);
+        __global const int *qy = q + (long)y * QL + QLANE0;
+        int2 d[NDIR];
+        int4 ti[NDIR];
+        __global long *cur[NDIR];
+        __global const long *prv[NDIR];
+        for (int k = 0; k < NDIR; ++k) {
+            d[k] = dirs[k];
+            ti[k] = tinfo[k];
+            cur[k] = ring + (size_t)(k * RB + slot(y)) * RLP + PAD;
+            prv[k] = ring + (size_t)(k * RB + slot(y - abs(d[k].y))) * RLP + PAD
+                   + (d[k].y > 0 ? -d[k].x * NC : d[k].x * NC);
+        }
+        long run[NC];
+        for (int c = 0; c < NC; ++c) run[c] = 0;
+        int ch = 0;
+        // left of the image only lines with b >= 0 carry on into it; right of it, b < 0
+        for (int v = 0; v < vc0; ++v)
+            for (int k = 0; k < NDIR; ++k)
+                if (d[k].y >= 0)
+                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
+                            run, &ch);
+        for (int v = vc1; v < nvec; ++v)
+            for (int k = 0; k < NDIR; ++k)
+                if (d[k].y < 0)
+                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
+                            run, &ch);
+        for (int v0 = vc0; v0 < vc1; v0 += CH) {   // the host makes vc1 - vc0 a multiple of CH
+            long16 s[CH];
+            for (int c = 0; c < CH; ++c) s[c] = 0;
+            for (int k = 0; k < NDIR; ++k) {
+                int16 g[CH];
+                gather_chunk(qy + 16 * v0, toff, tval, ti[k], g);
+                for (int c = 0; c < CH; ++c)
+                    s[c] += advance(d[k], g[c], v0 + c, cur[k], prv[k], run, &ch);
+            }
+            for (int c = 0; c < CH; ++c) {
+                const int v = v0 + c;
+                const long16 a = LOADL(acc + 16 * (v - vc0)) + s[c];
+                STOREL(acc + 16 * (v - vc0), a);
+                const int l0 = 16 * (v - vc0);
+                const size_t o = (size_t)y * out_lanes + l0;
+                if (fixed) {
+                    long av[16];
+                    *(long16 *)av = a;
+                    for (int j = 0; j < 16 && l0 + j < out_lanes; ++j) fixed_out[o + j] = av[j];
+                } else {
+                    const float16 f = convert_float16(convert_double16(a) * factor);
+                    if (l0 + 16 <= out_lanes) {
+                        *(__global float16u *)(out + o) = f;
+                    } else {
+                        float fv[16];
+                        *(float16 *)fv = f;
+                        for (int j = 0; l0 + j < out_lanes; ++j) out[o + j] = fv[j];
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,265 @@
+"""Uniform-radius polygonal blur: one pass per band of rows, all channels at once, exact.
+
+With one kernel for every pixel, MHU21's splat of directional differences (eq. 9) is a gather of
+the kernel's few terms (16 for the built-in hexagon, 8 for MHU21's 45-degree one) from the
+fixed-point image, and the directional prefix sums (eq. 10), their sum and the vertical prefix
+sum (eq. 11) can all run in the same top-down walk over the rows (``kernels/polygon_uniform.cl``):
+per row the work item reads the taps, updates each direction's prefix from a ring of the last
+``|b|`` rows and the column sums, and writes the colour row. Only the fixed-point image, one
+row of state per direction and the output go through memory: no atomics, no carries, no
+per-direction image buffers.
+
+Parallelism: the image is cut into bands of rows, one work item each. A band starts from the
+exact state of the row above it, computed from the same image: each direction's prefix sum is
+the image convolved with the directional prefix of that direction's terms (``itaps``, about the
+kernel's width), and the column sum is the blurred row itself, from the kernel's pixel runs on
+row prefix sums of the image. Both are O(kernel size) per band, not per pixel.
+
+Exactness: ``q = rint(colour 2^e)`` in int32 with ``2^e max|colour| sum_t |v_t| <= 2^30`` (per
+direction), so the gathered differences fit int32 and everything after them is wrapping int64:
+the output is the exact integer sum of ``q`` over the kernel (the brute-force splat of
+``tests/runtime_cl/polygon_reference.py``), divided by the kernel's pixel count in float64 and
+rounded once to float32. Every ``q`` is off by at most half a unit, so an output is off by at
+most ``2^-(e+1) <= 2^-(30 - ceil(log2 s))`` of the largest colour, ``s`` the largest
+``sum_t |v_t|`` of a direction (``2^-27`` for the built-in hexagon's ``s = 8``; see
+:func:`uniform_exponent`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .device import event_ms
+from .errors import InputError
+from .polygon_kernel import rasterize_polygon
+from .polygon_terms import PolygonTerms
+
+__all__ = ["UniformBlur", "uniform_exponent", "directional_prefix_taps", "pixel_runs",
+           "non_finite_error"]
+
+V = 16   # lanes per vector in the kernel
+CH = 4   # vectors per step over the image's columns
+
+
+def non_finite_error(image: np.ndarray) -> InputError:
+    """The error for an image holding NaN or inf colours."""
+    return InputError(f"image: {int((~np.isfinite(image)).sum())} non-finite value(s); "
+                      "replace NaN/inf colours before blurring")
+
+
+def uniform_exponent(peak: float, terms: PolygonTerms) -> int:
+    """Fixed-point exponent ``e`` for the image's largest ``|colour|`` ``peak``.
+
+    ``q = rint(colour 2^e)`` keeps every direction's gathered sum ``sum_t v_t q`` within int32:
+    ``2^e peak < 2^(30 - ceil(log2 s))`` with ``s`` the largest ``sum_t |v_t|`` of a direction.
+    """
+    if peak <= 0:
+        return 0
+    s = max(int(np.abs(terms.value[terms.direction == k]).sum()) for k in np.unique(terms.direction))
+    return min(30 - math.frexp(peak)[1] - (s - 1).bit_length(), 126)
+
+
+def directional_prefix_taps(dx, dy, value, direction) -> np.ndarray:
+    """Non-zeros ``(dx, dy, c)`` of the prefix sum along ``direction = (a, b)`` of sparse terms.
+
+    Terms on one line ``p + i (a, b)`` must sum to zero (true of every direction's terms of a
+    kernel), so the prefix has finite support, inside the terms' bounding box.
+    """
+    a, b = (int(v) for v in direction)
+    dx, dy, value = (np.asarray(v, np.int64) for v in (dx, dy, value))
+    step = np.floor_divide(dx, a)                       # position along the line
+    key = np.stack([dx - step * a, dy - b * step], 1)   # (x mod a, intercept): the line
+    out = []
+    for line in np.unique(key, axis=0):
+        on = np.all(key == line, axis=1)
+        pos, val = step[on], value[on]
+        order = np.argsort(pos, kind="stable")
+        pos, c = pos[order], np.cumsum(val[order])
+        if c[-1] != 0:
+            raise RuntimeError(f"terms on the line {tuple(line)} of direction {(a, b)} sum to "
+                               f"{c[-1]}, not 0: not a kernel's directional differences")
+        for s0, s1, cv in zip(pos[:-1], pos[1:], c[:-1]):
+            if cv:
+                s = np.arange(s0, s1)
+                out.append(np.stack([line[0] + s * a, line[1] + b * s, np.full(s.size, cv)], 1))
+    return np.concatenate(out) if out else np.zeros((0, 3), np.int64)
+
+
+def pixel_runs(polygon) -> np.ndarray:
+    """Rows of horizontal pixel runs ``(dy, dx0, dx1)`` (inclusive) of the rasterised polygon,
+    grouped by ``dy``."""
+    k, x0, y0 = rasterize_polygon(polygon)
+    edges = np.diff(np.pad(k, ((0, 0), (1, 1))), axis=1)
+    ys, xs = np.nonzero(edges)
+    starts = edges[ys, xs] > 0
+    # per row the run boundaries alternate start, end (the end is one past the run)
+    return np.stack([ys[starts] + y0, xs[starts] + x0, xs[~starts] - 1 + x0], 1).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class _Kernel:
+    """Host-side data of one table entry (independent of the image)."""
+
+    terms: PolygonTerms
+    init: list            # per direction: (dx, dy, c) of the ring state taps
+    runs: np.ndarray      # (dy, dx0, dx1)
+
+
+class UniformBlur:
+    """Blur by one polygon for every pixel, exactly (see the module docstring).
+
+    Parameters
+    ----------
+    splatter : runtime_cl.polygon_splat.PolygonSplatter
+        Supplies the device, the edge directions and the radius table (the same polygons,
+        terms and pixel counts as its radius-map path).
+    bands_per_unit : float, default 2
+        Bands of rows per compute unit (more balance the load on a busy machine; each band
+        costs one start-up of O(kernel size x width)).
+    band_rows : int, default 512
+        Fewest rows per band beyond one band per compute unit (smaller images: fewer start-ups).
+    """
+
+    def __init__(self, splatter, bands_per_unit: float = 2, band_rows: int = 512):
+        self.sp = splatter
+        self.bands_per_unit = bands_per_unit
+        self.band_rows = band_rows
+        self._programs: dict = {}
+        self._entries: dict = {}     # table entry -> _Kernel, for the table's current scale
+        self._scale = None
+        self._buffers: dict = {}
+
+    def _kernels(self, channels: int):
+        if channels not in self._programs:
+            sp = self.sp
+            rb = int(np.abs(sp.directions[:, 1]).max()) + 1
+            pad = V * -(-sp.amax * channels // V)
+            prg, _ = sp.device.program("polygon_uniform.cl", [f"-DNC={channels}",
+                                       f"-DNDIR={len(sp.directions)}", f"-DRB={rb}", f"-DPAD={pad}",
+                                       f"-DCH={CH}"])
+            self._programs[channels] = (sp._cl.Kernel(prg, "row_peak"),
+                                        sp._cl.Kernel(prg, "uniform_bands"), rb, pad)
+        return self._programs[channels]
+
+    def _buffer(self, name: str, nbytes: int, what: str):
+        """A device buffer of at least ``nbytes`` kept between calls (fresh memory would be
+        paged in, and zeroed by the OS, on every call: ~10 ms per 64 MiB)."""
+        if name not in self._buffers or self._buffers[name].size < nbytes:
+            self._buffers.pop(name, None)
+            self._buffers[name] = self.sp._alloc(nbytes, what)
+        return self._buffers[name]
+
+    def _entry(self, radius: float) -> _Kernel:
+        if self._scale is not self.sp.table.scale:   # the table grew: entries renumbered
+            self._entries.clear()
+            self._scale = self.sp.table.scale
+        e = int(self.sp.table.entry(np.float32(radius)))
+        if e not in self._entries:
+            t = self.sp.table.terms[e]
+            init = []
+            for k, (a, b) in enumerate(self.sp.directions):
+                on = t.direction == k
+                p = directional_prefix_taps(t.dx[on], t.dy[on], t.value[on], (a, b))
+                if b < 0:   # U(p) = -P(p - d): shift by d, negate
+                    p = np.stack([p[:, 0] + a, p[:, 1] + b, -p[:, 2]], 1)
+                init.append(p if b != 0 else p[:0])
+            self._entries[e] = _Kernel(t, init, pixel_runs(self.sp.table.scale.polygon(radius)))
+        return self._entries[e]
+
+    def render(self, img: np.ndarray, radius: float, fixed: bool = False):
+        """Blur the C-contiguous float32 (H, W, C) ``img`` by the polygon at ``radius``.
+
+        Returns ``(out, info)`` as :meth:`~runtime_cl.polygon_splat.PolygonSplatter.render`
+        (``fixed``: the int64 sums in units of ``2^-e / area``).
+
+        Raises
+        ------
+        InputError
+            ``img`` holds NaN or inf (found on the device, with the largest ``|colour|``).
+        """
+        sp, cl = self.sp, self.sp._cl
+        queue = sp.device.queue
+        h, w, c = img.shape
+        sp.table.ensure(float(radius))
+        kern = self._entry(radius)
+        t = kern.terms
+        row_peak, bands_kernel, rb, pad = self._kernels(c)
+        dirs = sp.directions
+        img_buf = cl.Buffer(sp.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR,
+                            hostbuf=img)
+        # largest |colour| per row as float bits (NaN and inf above every finite value)
+        peaks = np.empty(h, np.uint32)
+        peak_buf = self._buffer("peaks", h * 4, "row peaks")
+        events = [row_peak(queue, (h,), (1,), img_buf, np.int32(w * c), peak_buf)]
+        cl.enqueue_copy(queue, peaks, peak_buf, wait_for=events)
+        if peaks.max() >= 0x7F800000:
+            raise non_finite_error(img)
+        e = uniform_exponent(float(peaks.max().view(np.float32)), t)
+
+        # Region columns [x0, x1): every column where some direction's differences are non-zero
+        # (b >= 0 lines are summed from the left, b < 0 from the right); x0 aligned so that
+        # image lane 0 starts a vector.
+        b_of = dirs[t.direction, 1]
+        left = min(0, int(t.dx[b_of >= 0].min(initial=0)))
+        right = max(w, w + int(t.dx[b_of < 0].max(initial=0)))
+        colstep = V // math.gcd(V, c)
+        x0 = -colstep * -(-(-left) // colstep)
+        vc0 = -x0 * c // V
+        vc1 = vc0 + CH * -(-w * c // (V * CH))   # the image's vectors, whole steps of CH
+        nvec = max(vc1, -(-(right - x0) * c // V))
+
+        # q rows cover every tap of the sweep (rows 0..h-1), the ring start (rows >= -max|b|)
+        # and the column-sum start (row >= -1 with the runs' dy); each band its own rows.
+        init = [p for p in kern.init if len(p)]
+        ox = np.concatenate([t.dx, *(p[:, 0] for p in init), kern.runs[:, 1], kern.runs[:, 2],
+                             [0]])
+        oy = np.concatenate([t.dy, *(p[:, 1] for p in init), kern.runs[:, 0], [0]])
+        qlane0 = int(ox.max()) * c
+        ql = c * -(-(qlane0 + V * nvec - int(ox.min()) * c) // c)   # whole pixels per row
+        qrow0, qlast = rb + int(oy.max()), -int(oy.min())   # rows above and below a band
+
+        def offsets(dx, dy, v):
+            return np.stack([-np.asarray(dy) * ql - np.asarray(dx) * c, v], 1).astype(np.int32)
+
+        # sweep taps grouped by direction, then weight +1, -1, other (branch-free inner loops)
+        kind = np.where(t.value == 1, 0, np.where(t.value == -1, 1, 2))
+        order = np.lexsort((kind, t.direction))
+        taps = offsets(t.dx[order], t.dy[order], t.value[order])
+        counts = np.zeros((len(dirs), 3), np.int64)
+        np.add.at(counts, (t.direction, kind), 1)
+        tinfo = np.zeros((len(dirs), 4), np.int32)
+        tinfo[:, 0] = np.concatenate([[0], np.cumsum(counts.sum(1))[:-1]])
+        tinfo[:, 1:] = counts
+        istart = np.concatenate([[0], np.cumsum([len(p) for p in kern.init])]).astype(np.int32)
+        itaps = offsets(*np.concatenate(kern.init).T) if istart[-1] else np.zeros((1, 2), np.int32)
+        runs = np.zeros((len(kern.runs), 4), np.int32)
+        runs[:, :3] = kern.runs
+
+        units = int(sp.device.device.max_compute_units)
+        n_bands = max(1, min(h, int(self.bands_per_unit * units),
+                             max(units, h // self.band_rows)))
+        bands = np.linspace(0, h, n_bands + 1).round().astype(np.int32)
+        slab = (int(np.diff(bands).max()) + qrow0 + qlast) * ql
+        q = self._buffer("q", n_bands * slab * 4, "fixed-point image")
+        stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c
+        scratch = self._buffer("scratch", n_bands * stride * 8, "band scratch")
+        out = np.empty((h, w, c), np.int64 if fixed else np.float32)
+        out_buf = cl.Buffer(sp.device.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR,
+                            hostbuf=out)
+        factor = np.ldexp(1.0, -e) / t.area
+        events.append(bands_kernel(
+            queue, (n_bands,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
+            np.int32((int(ox.max()) - x0) * c), q, np.int64(slab), np.int32(ql), np.int32(qrow0),
+            np.int32(qlast), np.int32(qlane0),
+            np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), sp._upload(bands),
+            sp._dirs, sp._upload(tinfo), sp._upload(taps[:, 0].copy()),
+            sp._upload(taps[:, 1].copy()), sp._upload(istart), sp._upload(itaps), sp._upload(runs),
+            np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor), out_buf, out_buf,
+            np.int32(1 if fixed else 0)))
+        mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
+                                          out.dtype, wait_for=events[-1:], is_blocking=True)
+        mapped.base.release(queue)
+        return out, {"peak_ms": event_ms(events[0]), "sweep_ms": event_ms(events[1]),
+                     "exponent": np.full(c, e), "area": t.area, "bands": n_bands}

@@ -1,0 +1,115 @@
+"""The uniform-radius path (UniformBlur) against brute force, and its host-side pieces.
+
+Bit for bit: the banded one-pass sweep's integer sums against a plain integer scatter of the same
+quantised colours (``polygon_reference.splat_fixed``), whatever the number of bands, channels or
+the kernel's size relative to the image.
+"""
+import numpy as np
+import pytest
+from polygon_reference import SHAPES, shape, splat_fixed
+
+from runtime_cl.errors import InputError
+from runtime_cl.polygon_kernel import directional_prefix_sum, rasterize_polygon
+from runtime_cl.polygon_splat import PolygonSplatter
+from runtime_cl.polygon_uniform import (directional_prefix_taps, pixel_runs, uniform_exponent)
+
+_SPLATTERS = {}
+
+
+def splatter(name):
+    if name not in _SPLATTERS:
+        _SPLATTERS[name] = PolygonSplatter(*shape(name))
+    return _SPLATTERS[name]
+
+
+def scene(rng, h, w, c):
+    img = (rng.random((h, w, c)) - 0.3).astype(np.float32)   # negative colours too
+    img[rng.random((h, w)) < 0.3] = 0.0
+    return img
+
+
+@pytest.mark.parametrize("name", sorted(SHAPES))
+@pytest.mark.parametrize("channels", [1, 2, 4])
+def test_every_channel_count_is_brute_force_exact(name, channels):
+    rng = np.random.default_rng(channels)
+    sp = splatter(name)
+    img = scene(rng, 23, 31, channels)
+    out, info = sp.render(img, 7.5, fixed=True)
+    np.testing.assert_array_equal(out, splat_fixed(img, 7.5, sp.polygon, info["exponent"][0],
+                                                   uniform=True))
+
+
+@pytest.mark.parametrize("name", ["hexagon", "heart12"])
+def test_bands_start_from_the_exact_state(name):
+    """Bands of one or two rows under a kernel ~25 rows tall: each starts from the computed
+    state of the row above it, so every split gives the same integers."""
+    rng = np.random.default_rng(3)
+    sp = splatter(name)
+    img = scene(rng, 17, 40, 3)
+    ref = splat_fixed(img, 12.0, sp.polygon, sp.render(img, 12.0, fixed=True)[1]["exponent"][0],
+                      uniform=True)
+    uniform = sp._uniform
+    try:
+        uniform.band_rows = 1
+        for per_unit in (0.5, 4, 8):
+            uniform.bands_per_unit = per_unit
+            out, info = sp.render(img, 12.0, fixed=True)
+            assert info["bands"] == max(1, int(per_unit * sp.device.device.max_compute_units))
+            np.testing.assert_array_equal(out, ref)
+    finally:
+        uniform.bands_per_unit, uniform.band_rows = 2, 512
+
+
+def test_kernel_larger_than_the_image():
+    rng = np.random.default_rng(5)
+    sp = splatter("octagon")
+    img = scene(rng, 6, 9, 3)
+    out, info = sp.render(img, 40.0, fixed=True)
+    np.testing.assert_array_equal(out, splat_fixed(img, 40.0, sp.polygon, info["exponent"][0],
+                                                   uniform=True))
+
+
+def test_non_finite_colours_are_refused():
+    sp = splatter("hexagon")
+    for bad in (np.nan, np.inf, -np.inf):
+        img = np.ones((5, 37, 3), np.float32)
+        img[4, 36, 2] = bad                       # the last lane of the last row
+        with pytest.raises(InputError, match="image: 1 non-finite"):
+            sp.render(img, 4.0)
+
+
+@pytest.mark.parametrize("name", sorted(SHAPES))
+def test_prefix_taps_and_runs_rebuild_the_kernel(name):
+    """Per direction the prefix of its terms (the ring's start taps), summed and summed down the
+    columns, is the rasterised polygon; the pixel runs cover exactly its pixels."""
+    sp = splatter(name)
+    for r in (3.0, 17.5):
+        t = sp.kernel_terms(r)
+        k, x0, y0 = rasterize_polygon(sp.polygon(r))
+        pad = 4
+        total = np.zeros((k.shape[0] + 2 * pad, k.shape[1] + 2 * pad), np.int64)
+        for d in range(len(sp.directions)):
+            on = t.direction == d
+            p = directional_prefix_taps(t.dx[on], t.dy[on], t.value[on], sp.directions[d])
+            np.add.at(total, (p[:, 1] - y0 + pad, p[:, 0] - x0 + pad), p[:, 2])
+        np.testing.assert_array_equal(directional_prefix_sum(total, (0, 1))[pad:-pad, pad:-pad], k)
+        runs = pixel_runs(sp.polygon(r))
+        got = np.zeros_like(k)
+        for dy, dx0, dx1 in runs:
+            got[dy - y0, dx0 - x0:dx1 - x0 + 1] += 1
+        np.testing.assert_array_equal(got, k)
+
+
+def test_prefix_taps_need_lines_that_sum_to_zero():
+    with pytest.raises(RuntimeError, match="sum to 1"):
+        directional_prefix_taps([0, 2], [0, 2], [1, 0], (1, 1))
+
+
+def test_exponent_keeps_the_gathered_sums_in_int32():
+    t = splatter("hexagon").kernel_terms(60.0)
+    s = max(int(np.abs(t.value[t.direction == k]).sum()) for k in np.unique(t.direction))
+    for peak in (1e-3, 0.7, 1.0, 1.2, 3e4):
+        e = uniform_exponent(peak, t)
+        assert s * np.rint(np.float32(peak) * np.float32(2.0 ** e)) < 2 ** 31
+        assert s * peak * 2.0 ** e > 2 ** 28                  # and at most two bits are idle
+    assert uniform_exponent(0.0, t) == 0

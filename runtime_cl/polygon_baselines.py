@@ -75,7 +75,7 @@ class BaselineSplatter:
 
     def _kernel(self, c: int, name: str):
         if (c, name) not in self._kernels:
-            prg, _ = self.sp.device.program("polygon_baselines.cl",
+            prg, _ = self.sp.device.program(("polygon_entry.cl", "polygon_baselines.cl"),
                                             [f"-DNC={c}", f"-DBUCKETS={BUCKETS}", f"-DCB={CB}"])
             for n in ("scatter", "row_prefix", "column_out"):
                 self._kernels[(c, n)] = self.sp._cl.Kernel(prg, n)

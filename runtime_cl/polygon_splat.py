@@ -145,7 +145,7 @@ class PolygonSplatter:
         if (channels, name) not in self._kernels:
             opts = [f"-DNC={channels}", f"-DNDIR={len(self.directions)}", f"-DAMAX={self.amax}",
                     f"-DBMAX={self.bmax}", f"-DCB={CB}", f"-DCHUNK={self.chunk}", f"-DBUCKETS={BUCKETS}"]
-            prg, _ = self.device.program("polygon_splat.cl", opts)
+            prg, _ = self.device.program(("polygon_entry.cl", "polygon_splat.cl"), opts)
             for n in ("splat", "prefix_local", "prefix_carry", "comb_exit", "comb_prefix", "vsum"):
                 self._kernels[(channels, n)] = self._cl.Kernel(prg, n)
         return self._kernels[(channels, name)]

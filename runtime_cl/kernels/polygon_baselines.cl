@@ -25,19 +25,9 @@ __kernel void scatter(__global const float *image, __global const float *radius,
     for (int x = x0; x < min(x0 + TILE, W); ++x) {
         const size_t p = (size_t)y * W + x;
         const float r = radius[p];
-        if (r != last_r) {
-            e = bucket[(int)(r * BUCKETS)];
-            while (e + 1 < n_entries && breaks[e + 1] <= r) ++e;
-            last_r = r;
-        }
+        if (r != last_r) { e = find_entry(breaks, n_entries, bucket, r); last_r = r; }
         ulong q[NC];
-        int any = 0;
-        for (int c = 0; c < NC; ++c) {
-            const long v = convert_long_rte((double)image[p * NC + c] * unit[e * NC + c]);
-            q[c] = (ulong)v;
-            any |= v != 0;
-        }
-        if (!any) continue;
+        if (!quantise(image, unit, p, e, q)) continue;
         for (int t = term_start[e]; t < term_start[e + 1]; ++t) {
             const int4 tm = terms[t];
             __global ulong *dst = canvas + ((size_t)(y + tm.z + PAD) * CW + (x + tm.y + PAD)) * NC;

@@ -64,14 +64,6 @@ inline void emit(__global ulong *buf, __global ulong *comb, int a, int b, int x,
     }
 }
 
-// Entry of radius r: breaks[e] <= r < breaks[e + 1]. `bucket[i]` is the entry of radius
-// i / BUCKETS, so a few steps forward from it find the entry.
-inline int find_entry(__global const float *breaks, int n, __global const int *bucket, float r) {
-    int e = bucket[(int)(r * BUCKETS)];
-    while (e + 1 < n && breaks[e + 1] <= r) ++e;
-    return e;
-}
-
 // Spatially varying radius: each work item splats one TW x TH tile of pixels. One launch runs
 // the tiles (cx + i PX, cy + j PY): their kernels (at most the host's span wide or high) cannot
 // overlap, so plain adds do not race.
@@ -100,13 +92,7 @@ __kernel void splat(__global const float *image,          // H x W x NC
         const float r = radius[p];
         if (r != last_r) { e = find_entry(breaks, n_entries, bucket, r); last_r = r; }
         ulong q[NC];
-        int any = 0;
-        for (int c = 0; c < NC; ++c) {
-            const long v = convert_long_rte((double)image[p * NC + c] * unit[e * NC + c]);
-            q[c] = (ulong)v;
-            any |= v != 0;
-        }
-        if (!any) continue;
+        if (!quantise(image, unit, p, e, q)) continue;
         for (int t = term_start[e]; t < term_start[e + 1]; ++t) {
             const int4 tm = terms[t];
             const int2 d = dirs[tm.x];

@@ -4,13 +4,14 @@ VENV    := .venv
 VPY     := $(VENV)/bin/python
 STAMP   := $(VENV)/.installed
 LLVM    := $(VENV)/.llvm-ok
+POCL    := $(VENV)/.pocl-ok
 # PoCL keeps compiled kernels here; Numba its compiled loops.
 export POCL_CACHE_DIR ?= $(CURDIR)/.cache/pocl
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.cache/numba
 
 .PHONY: demo test test-slow bench doctor clean setup
 
-setup: $(STAMP) $(LLVM)
+setup: $(STAMP) $(LLVM) $(POCL)
 
 $(STAMP): pyproject.toml
 	test -x $(VPY) || $(PY) -m venv $(VENV)
@@ -25,6 +26,12 @@ $(LLVM): $(STAMP)
 	  (apt-get install -y libllvm19 || (apt-get update && apt-get install -y libllvm19)) >/dev/null; \
 	fi
 	$(VPY) -m lab.llvm_check
+	touch $@
+
+# PoCL 3.0's LLVM 14 cannot name CPUs newer than itself (AMD Zen 5): kernels would not build.
+# runtime_cl.pocl_cpu patches its CPU name to the host's x86-64 level where that is so.
+$(POCL): $(STAMP)
+	$(VPY) -m runtime_cl.pocl_cpu --patch
 	touch $@
 
 demo: setup

@@ -49,6 +49,16 @@ def diagnose(say=print) -> list[str]:
             f"units, fp64={d['fp64']}, kernel cache {d['pocl_cache_dir'] or 'PoCL default'}")
     except Exception as exc:  # noqa: BLE001
         problems.append(f"OpenCL: {exc}; install PoCL: .venv/bin/pip install pocl-binary-distribution")
+    else:
+        from runtime_cl.pocl_cpu import FIX, probe
+
+        built = probe()
+        if built["ok"]:
+            say(f"  ok   PoCL builds kernels ({built['device']})")
+        elif "unknown target CPU" in (built["error"] or ""):
+            problems.append(f"PoCL's LLVM does not know this CPU, no kernel builds; fix it: {FIX}")
+        else:
+            problems.append(f"PoCL cannot build a kernel: {built['error']}")
     say("problems:" if problems else "everything splatlab needs is here")
     for p in problems:
         say(f"  - {p}")

@@ -93,7 +93,12 @@ class Device:
         try:
             program = cl.Program(self.context, source).build(options=list(options))
         except cl.RuntimeError as exc:
-            raise RuntimeError(f"OpenCL build of {files} with {options} failed:\n{exc}") from exc
+            hint = ""
+            if "unknown target CPU" in str(exc):
+                from .pocl_cpu import FIX
+
+                hint = f"\nPoCL's LLVM does not know this CPU; fix it with `{FIX}`"
+            raise RuntimeError(f"OpenCL build of {files} with {options} failed:\n{exc}{hint}") from exc
         record = BuildRecord(files, options, (time.perf_counter() - start) * 1e3, True)
         self._programs[key] = program
         self.builds.append(record)

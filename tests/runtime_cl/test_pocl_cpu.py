@@ -1,0 +1,96 @@
+"""PoCL's CPU-name patch: level choice from CPU flags, and a patched copy of the real libpocl
+loaded through the ICD loader builds and runs a kernel for the level it was given."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from runtime_cl import pocl_cpu
+
+V2 = ["cx16", "lahf_lm", "popcnt", "sse4_1", "sse4_2", "ssse3"]
+V3 = V2 + ["avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "abm", "movbe", "xsave"]
+V4 = V3 + ["avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"]
+
+
+@pytest.mark.parametrize("flags, level", [
+    (["fpu", "sse2"], "x86-64"), (V2, "x86-64-v2"), (V3, "x86-64-v3"), (V4 + ["sha_ni"], "x86-64-v4"),
+    ([f for f in V4 if f != "avx512vl"], "x86-64-v3"),      # one flag short of a level
+    ([f for f in V4 if f != "movbe"], "x86-64-v2"),         # v4's flags without all of v3's
+])
+def test_level_is_the_highest_whose_flags_are_all_there(flags, level):
+    assert pocl_cpu.cpu_level(flags) == level
+
+
+def test_host_flags_read_the_first_processor(tmp_path):
+    info = tmp_path / "cpuinfo"
+    info.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx2\n\nprocessor\t: 1\nflags\t\t: fpu\n")
+    assert pocl_cpu.host_flags(info) == ["fpu", "sse2", "avx2"]
+
+
+@pytest.fixture(scope="module")
+def pocl_original():
+    """The libpocl this Python loads, unpatched (its saved original where it was patched)."""
+    state = pocl_cpu.probe()
+    assert state["library"], state
+    lib = Path(state["library"])
+    backup = pocl_cpu.backup_path(lib)
+    return lib, (backup if backup.exists() else lib).read_bytes()
+
+
+def test_installed_pocl_builds_kernels():
+    """`make setup` leaves a PoCL that builds kernels (patched only where it had to be)."""
+    state = pocl_cpu.probe()
+    assert state["ok"], state["error"]
+
+
+def test_patched_copy_runs_a_kernel_for_the_given_level(pocl_original, tmp_path):
+    lib, data = pocl_original
+    patched = pocl_cpu.patch_bytes(data, "x86-64-v2")
+    assert pocl_cpu.patched_name(patched) == "x86-64-v2"
+    assert pocl_cpu.patched_name(data) is None
+    # The library's RPATH and data paths are relative to it: mirror the wheel's layout.
+    libs = tmp_path / "pyopencl" / ".libs"
+    libs.mkdir(parents=True)
+    dist = lib.parent.parent.parent / "pocl_binary_distribution"
+    (tmp_path / "pocl_binary_distribution").symlink_to(dist)
+    copy = libs / "libpocl-test.so"
+    copy.write_bytes(patched)
+    (tmp_path / "test.icd").write_text(f"{copy}\n")
+    code = ("import json, numpy as np, pyopencl as cl\n"
+            "d = [d for p in cl.get_platforms() for d in p.get_devices()\n"
+            "     if d.version.endswith('-x86-64-v2')][0]\n"
+            "ctx = cl.Context([d]); q = cl.CommandQueue(ctx)\n"
+            "p = cl.Program(ctx, '__kernel void k(__global float *a) "
+            "{ int i = get_global_id(0); a[i] = sqrt((float)i); }').build()\n"
+            "a = np.zeros(64, np.float32); b = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, a.nbytes)\n"
+            "p.k(q, a.shape, None, b); cl.enqueue_copy(q, a, b); q.finish()\n"
+            "print(json.dumps({'version': d.version, 'a': a.tolist()}))\n")
+    env = dict(os.environ, OCL_ICD_VENDORS=str(tmp_path), POCL_CACHE_DIR=str(tmp_path / "cache"))
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert run.returncode == 0, run.stderr[-3000:]
+    out = json.loads(run.stdout.strip().splitlines()[-1])
+    assert out["a"] == pytest.approx([i ** 0.5 for i in range(64)], rel=1e-6)
+
+
+def test_patch_refuses_code_it_does_not_know(pocl_original):
+    _, data = pocl_original
+    patched = pocl_cpu.patch_bytes(data, "x86-64-v3")
+    with pytest.raises(ValueError, match="not the PoCL 3.0 code"):
+        pocl_cpu.patch_bytes(patched, "x86-64-v3")          # already patched: not the original
+    with pytest.raises(ValueError, match="has no 'znver9'"):
+        pocl_cpu.patch_bytes(data, "znver9")
+
+
+def test_patch_library_keeps_the_original_and_restores_it(pocl_original, tmp_path):
+    _, data = pocl_original
+    lib = tmp_path / "libpocl-copy.so"
+    lib.write_bytes(data)
+    pocl_cpu.patch_library(lib, "x86-64")
+    assert pocl_cpu.patched_name(lib.read_bytes()) == "x86-64"
+    assert pocl_cpu.backup_path(lib).read_bytes() == data
+    assert pocl_cpu.restore_library(lib)
+    assert lib.read_bytes() == data and not pocl_cpu.backup_path(lib).exists()
+    assert not pocl_cpu.restore_library(lib)

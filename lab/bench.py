@@ -5,11 +5,11 @@ Methods are compared as ratios measured in the same run (the machine is shared a
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from datetime import datetime, timezone
 from pathlib import Path
+
+from runtime_cl.atomic_file import atomic_path
 
 from .precompute import ROOT
 from .report.machine import machine_info
@@ -23,10 +23,8 @@ def _write(name: str, data: dict) -> Path:
     data = dict(data, benchmark=name, created=stamp, machine=machine_info())
     path = BENCH_DIR / f"{name}-{stamp}.json"
     for target in (path, BENCH_DIR / f"{name}-latest.json"):
-        fd, tmp = tempfile.mkstemp(dir=BENCH_DIR, prefix=f".{target.name}.")
-        with os.fdopen(fd, "w") as fh:
-            json.dump(data, fh, indent=2)
-        os.replace(tmp, target)
+        with atomic_path(target) as tmp:
+            tmp.write_text(json.dumps(data, indent=2))
     return path
 
 

@@ -1,8 +1,13 @@
 """``splatlab bench polygon``: MHU21 exact polygonal bokeh, each figure a ratio from one run.
 
-(a) Time against the largest radius (MHU21 Fig. 13): 1920x1080, octagon, a depth-of-field radius
-    map ``R |sin(x / 97) cos(y / 61)|`` (every radius in [0, R] present), R = 10 ... 200.
-    Target: R = 200 within 1.3x of R = 25 (the median over repeats of the ratio in each repeat).
+(a) Time against the largest radius (MHU21 Fig. 13, "DoF filtering"): 1920x1080, octagon, the
+    thin-lens CoC of a depth-of-field scene (:func:`dof_scene_depth`: ground, back wall, a
+    subject in focus at 3 m, bokeh in front and behind) with the f-number set so that the
+    largest radius is R = 10 ... 200. Target: R = 200 within 1.3x of R = 25 (the median over
+    repeats of the ratio in each repeat). The same sweep on a stress map,
+    ``R |sin(x / 97) cos(y / 61)|``, whose radius changes by up to R/61 px per pixel everywhere
+    (neighbouring pixels' terms land R/30 rows apart: the cost is in the caches, not the work)
+    is reported beside it.
 (b) Against the methods of MHU21 Fig. 11 at R = 60 as the image grows: brute-force dense
     splatting of the rasterised polygon, the Laplacian of it as the sparse kernel (LSR18
     spreadlets, FFT Poisson integration), dx dy (KTB09), all on the same radius table and fixed
@@ -25,13 +30,47 @@ import time
 
 import numpy as np
 
-__all__ = ["bench_polygon", "dof_radius", "fft_blur"]
+__all__ = ["bench_polygon", "dof_radius", "dof_scene_depth", "scene_radius", "fft_blur"]
 
 
 def dof_radius(h: int, w: int, r_max: float) -> np.ndarray:
-    """A smooth radius map with every radius in [0, r_max] (px)."""
+    """A smooth radius map with every radius in [0, r_max] (px), steep everywhere."""
     y, x = np.mgrid[0:h, 0:w]
     return (r_max * np.abs(np.sin(x / 97.0) * np.cos(y / 61.0))).astype(np.float32)
+
+
+# (centre x, y, z, radius) in metres, camera at the origin looking along +z, y up: a subject in
+# focus at 3 m, two objects in front (bokeh up to R), three behind.
+_SPHERES = ((0.1, -0.25, 3.0, 0.35), (-0.42, -0.3, 1.1, 0.16), (0.33, -0.27, 1.5, 0.09),
+            (1.7, -0.3, 7.0, 0.7), (-2.6, 0.2, 12.0, 1.4), (-0.6, -0.7, 5.0, 0.3))
+
+
+def dof_scene_depth(h: int, w: int, fov_x_deg: float = 40.0) -> np.ndarray:
+    """Camera-space depth (m) of a pinhole view of a depth-of-field scene: a ground plane 1 m
+    below the camera, a wall 30 m away, spheres from 1.1 m to 12 m (:data:`_SPHERES`)."""
+    f = 0.5 * w / np.tan(np.radians(fov_x_deg) / 2)
+    y, x = np.mgrid[0:h, 0:w]
+    d = np.stack([(x + 0.5 - w / 2) / f, (h / 2 - y - 0.5) / f, np.ones((h, w))], -1)
+    z = np.full((h, w), 30.0)                                   # the wall (z along the ray's z)
+    with np.errstate(divide="ignore"):
+        ground = np.where(d[..., 1] < 0, -1.0 / d[..., 1], np.inf)
+    z = np.minimum(z, ground)
+    for cx, cy, cz, r in _SPHERES:               # ray p = t d, |p - c| = r; depth = t (d_z = 1)
+        a = (d * d).sum(-1)
+        b = d @ np.array([cx, cy, cz])
+        disc = b * b - a * (cx * cx + cy * cy + cz * cz - r * r)
+        t = (b - np.sqrt(np.maximum(disc, 0))) / a
+        z = np.where((disc > 0) & (t > 0) & (t < z), t, z)
+    return z
+
+
+def scene_radius(depth: np.ndarray, r_max: float, focus_m: float = 3.0) -> np.ndarray:
+    """``|CoC|`` (px) of a thin lens focused at ``focus_m``, its f-number set so that the
+    largest radius over ``depth`` is ``r_max``."""
+    from runtime_cl.thin_lens import ThinLens
+
+    coc = np.abs(ThinLens(50.0, 1.0, focus_m).coc_radius_px(depth, depth.shape[1]))
+    return (coc * (r_max / coc.max())).astype(np.float32)
 
 
 def _best(fn, repeats: int):
@@ -72,15 +111,9 @@ def fft_blur(image: np.ndarray, kernel: np.ndarray, origin, pow2: bool):
     return run
 
 
-def _time_vs_radius(repeats, quick):
-    from .polygon_aperture import polygon_aperture
-
-    h, w = (270, 480) if quick else (1080, 1920)
-    radii = (10, 25, 50, 100, 150, 200)
-    sp = polygon_aperture("octagon").splatter
-    sp.table.ensure(200.0)
-    img = np.random.default_rng(0).random((h, w, 3)).astype(np.float32)
-    maps = {r: dof_radius(h, w, r) for r in radii}
+def _sweep(sp, img, maps, repeats):
+    """Wall and kernel times of ``sp.render`` over ``maps`` (R -> radius map), interleaved."""
+    radii = list(maps)
     for r in radii:
         sp.render(img, maps[r])                                  # builds, warms up
     wall = {r: [] for r in radii}
@@ -95,22 +128,39 @@ def _time_vs_radius(repeats, quick):
     kratio = np.array(kern[200]) / np.array(kern[25])
     nnz = {r: float(np.mean([sp.table.terms[e].nnz for e in np.unique(sp.table.entry(maps[r]))]))
            for r in radii}
-    # Diagnostic: one radius everywhere, the same radius-map path and the same work per pixel.
-    # With one radius neighbouring pixels' terms stream along rows; with a map they land in
-    # different cache lines and a buffer line is revisited by pixels up to 2R apart: that reuse
-    # fits L2 at R = 25 and spills to L3 at R = 200 (72 bytes per pixel for 3 directions x RGB).
+    return {"wall_ms": {r: min(v) for r, v in wall.items()},
+            "wall_ms_spread": {r: _spread(v) for r, v in wall.items()},
+            "kernel_ms": {r: min(v) for r, v in kern.items()}, "mean_terms_per_entry": nnz,
+            "ratio_wall_200_over_25": float(np.median(ratio)), "ratio_wall_spread": _spread(ratio),
+            "ratio_kernel_200_over_25": float(np.median(kratio)), "ratio_kernel_spread": _spread(kratio)}
+
+
+def _time_vs_radius(repeats, quick):
+    from .polygon_aperture import polygon_aperture
+
+    h, w = (270, 480) if quick else (1080, 1920)
+    radii = (10, 25, 50, 100, 150, 200)
+    sp = polygon_aperture("octagon").splatter
+    sp.table.ensure(200.0)
+    img = np.random.default_rng(0).random((h, w, 3)).astype(np.float32)
+    depth = dof_scene_depth(h, w)
+    out = {"image": [w, h], "shape": "octagon",
+           "radius_map": "thin-lens |CoC| of dof_scene_depth, focus 3 m, scaled to max R",
+           **_sweep(sp, img, {r: scene_radius(depth, r) for r in radii}, repeats)}
+    # The stress map, and one radius everywhere (the same radius-map path and work per pixel).
+    # With one radius neighbouring pixels' terms stream along rows; with a steep map they land
+    # in different cache lines and a buffer line is revisited by pixels up to 2R apart: that
+    # reuse fits L2 at R = 25 and spills to L3 at R = 200 (72 bytes per pixel for 3 directions
+    # x RGB).
+    out["stress"] = {"radius_map": "R |sin(x/97) cos(y/61)|",
+                     **_sweep(sp, img, {r: dof_radius(h, w, r) for r in radii}, repeats)}
     flat = {}
     for r in (25, 200):
         m = np.full((h, w), r, np.float32)
         flat[r], _, _ = _best(lambda m=m: sp.render(img, m), repeats)
-    return {"image": [w, h], "shape": "octagon", "radius_map": "R |sin(x/97) cos(y/61)|",
-            "wall_ms": {r: min(v) for r, v in wall.items()},
-            "wall_ms_spread": {r: _spread(v) for r, v in wall.items()},
-            "kernel_ms": {r: min(v) for r, v in kern.items()}, "mean_terms_per_entry": nnz,
-            "ratio_wall_200_over_25": float(np.median(ratio)), "ratio_wall_spread": _spread(ratio),
-            "ratio_kernel_200_over_25": float(np.median(kratio)), "ratio_kernel_spread": _spread(kratio),
-            "constant_map_wall_ms": flat, "constant_map_ratio_200_over_25": flat[200] / flat[25],
-            "table_entries_to_200": len(sp.table), "table_build_s": sp.table.build_seconds}
+    out.update({"constant_map_wall_ms": flat, "constant_map_ratio_200_over_25": flat[200] / flat[25],
+                "table_entries_to_200": len(sp.table), "table_build_s": sp.table.build_seconds})
+    return out
 
 
 def _methods(repeats, quick):

@@ -14,15 +14,14 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import OpenEXR
 
+from runtime_cl.atomic_file import atomic_path
 from runtime_cl.thin_lens import ThinLens
 
 from .config import from_table
@@ -182,15 +181,8 @@ def _atomic_write(path, header: dict, channels: dict):
     path.parent.mkdir(parents=True, exist_ok=True)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **header}
     chans = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        with OpenEXR.File(header, chans) as exr:
-            exr.write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp, OpenEXR.File(header, chans) as exr:
+        exr.write(str(tmp))
 
 
 def write_labelled(path, image: LabelledImage):

@@ -28,7 +28,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import zipfile
 import zlib
 from dataclasses import dataclass, field
@@ -36,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic_file import atomic_path
 from .errors import InputError
 from .psf_space import NestedGrid
 
@@ -228,18 +228,8 @@ class SpreadletDatabase:
         payload = {"header": np.frombuffer(_header_bytes(self.header()), dtype=np.uint8),
                    "checksum": np.frombuffer(checksum.encode("ascii"), dtype=np.uint8),
                    **self._arrays()}
-        fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".",
-                                   prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, **payload)  # a file object: savez adds no ".npz" suffix
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        with atomic_path(path, fsync=True) as tmp, open(tmp, "wb") as f:
+            np.savez(f, **payload)  # a file object: savez adds no ".npz" suffix
         self.checksum, self.path = checksum, path
         return checksum
 

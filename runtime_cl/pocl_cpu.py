@@ -23,6 +23,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .atomic_file import atomic_path
+
 __all__ = ["probe", "cpu_level", "host_flags", "patch_bytes", "patched_name", "patch_library",
            "restore_library", "backup_path", "FIX"]
 
@@ -193,15 +195,8 @@ def backup_path(path) -> Path:
 
 
 def _replace(path: Path, data: bytes, mode: int) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path, fsync=True, mode=mode) as tmp:
+        tmp.write_bytes(data)
 
 
 def patch_library(path, name: str) -> None:

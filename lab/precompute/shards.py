@@ -14,13 +14,13 @@ Arrays: ``cell`` (int64 scalar), ``points`` int16 (k, 2), ``values`` float32 (k,
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import zipfile
 import zlib
 from pathlib import Path
 
 import numpy as np
+
+from runtime_cl.atomic_file import atomic_path
 
 __all__ = ["KEYS", "shard_path", "write_shard", "read_shard", "shard_ok", "summary"]
 
@@ -36,16 +36,8 @@ def shard_path(folder: Path, cell: int) -> Path:
 def write_shard(folder: Path, shard: dict) -> Path:
     """Write ``shard`` (the arrays of :data:`KEYS`) atomically; returns its path."""
     path = shard_path(folder, int(shard["cell"]))
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, **{k: shard[k] for k in KEYS})
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path, fsync=True) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **{k: shard[k] for k in KEYS})   # a file object: savez adds no ".npz"
     return path
 
 

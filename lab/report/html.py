@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import html
 import json
-import os
-import tempfile
 from pathlib import Path
+
+from runtime_cl.atomic_file import atomic_path
 
 STYLE = """
 body{font-family:system-ui,sans-serif;margin:2em;max-width:1400px;color:#222}
@@ -73,8 +73,6 @@ def write_report(report: dict, out_dir) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     for name, text in (("report.json", json.dumps(report, indent=2, allow_nan=True)),
                        ("index.html", render_html(report))):
-        fd, tmp = tempfile.mkstemp(dir=out_dir, prefix=f".{name}.")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, out_dir / name)
+        with atomic_path(out_dir / name) as tmp:
+            tmp.write_text(text)
     return out_dir / "index.html"

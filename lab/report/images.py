@@ -1,12 +1,12 @@
 """PNG output for reports: tonemapped renders, error maps, PSF and spreadlet views."""
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
+
+from runtime_cl.atomic_file import atomic_path
 
 from .metrics import tonemap
 
@@ -14,14 +14,8 @@ from .metrics import tonemap
 def _atomic_save(img: Image.Image, path: Path) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         img.save(tmp, format="PNG")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save_render(linear: np.ndarray, path) -> None:

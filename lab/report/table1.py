@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from runtime_cl.atomic_file import atomic_path
 
 __all__ = ["LSR18_TABLE1", "table1_row", "table1_markdown", "write_table1"]
 
@@ -76,14 +77,8 @@ def table1_markdown(rows: list[dict]) -> str:
 
 
 def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
 
 
 def write_table1(rows: list[dict], out_dir, name: str = "table1") -> tuple[Path, Path]:

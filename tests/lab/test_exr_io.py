@@ -5,7 +5,6 @@ import numpy as np
 import OpenEXR
 import pytest
 
-import lab.exr_io as exr_io
 from lab.errors import UserError
 from lab.exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
 
@@ -54,7 +53,9 @@ def test_failed_write_keeps_old_file_and_no_temp(tmp_path, monkeypatch):
     def boom(src, dst):
         raise OSError("disk full")
 
-    monkeypatch.setattr(exr_io.os, "replace", boom)
+    import runtime_cl.atomic_file as atomic_file
+
+    monkeypatch.setattr(atomic_file.os, "replace", boom)
     with pytest.raises(OSError):
         write_labelled(path, image(seed=2))
     assert path.read_bytes() == before

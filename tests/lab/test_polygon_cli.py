@@ -51,6 +51,21 @@ def test_render_errors_name_the_option(labelled, tmp_path, capsys):
     assert "max_edges" in capsys.readouterr().err
 
 
+def test_bench_dof_scene_radius_map():
+    """The Fig. 13 scene: depths where the geometry puts them, f-number scaled to the largest R."""
+    from lab.bench_polygon import dof_scene_depth, scene_radius
+
+    h, w, fov = 270, 480, 40.0
+    z = dof_scene_depth(h, w, fov)
+    f = 0.5 * w / np.tan(np.radians(fov) / 2)
+    cx, cy, cz, r = 0.1, -0.25, 3.0, 0.35          # the subject in focus, seen through its centre
+    col, row = int(w / 2 + f * cx / cz), int(h / 2 - f * cy / cz)
+    assert z[row, col] == pytest.approx(cz - r * cz / np.sqrt(cx * cx + cy * cy + cz * cz), rel=0.01)
+    assert z[0, 0] == 30.0 and z.min() > 0.9     # the wall in a corner; nothing nearer than 0.9 m
+    radius = scene_radius(z, 50.0)
+    assert radius.max() == pytest.approx(50.0) and radius[row, col] < 0.1 * 50
+
+
 @pytest.mark.slow
 def test_bench_polygon_quick(monkeypatch, tmp_path):
     import lab.bench as bench

@@ -16,6 +16,8 @@ builds kernels as it is, and nothing is patched.
 from __future__ import annotations
 
 import argparse
+import io
+import json
 import os
 import struct
 import subprocess
@@ -70,11 +72,9 @@ print(json.dumps(out))
 def probe() -> dict:
     """Build a one-line kernel on PoCL in a fresh process (a patched library is only seen by a
     new process): ``{"ok", "error", "library" (path of the loaded libpocl), "device"}``."""
-    import json
-
-    env = dict(os.environ, POCL_CACHE_DIR=tempfile.mkdtemp(prefix="pocl-probe-"))
-    run = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, env=env,
-                         timeout=300)
+    with tempfile.TemporaryDirectory(prefix="pocl-probe-") as cache:   # a real build, not a hit
+        run = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True,
+                             env=dict(os.environ, POCL_CACHE_DIR=cache), timeout=300)
     if run.returncode != 0:
         return {"ok": False, "error": run.stderr.strip()[-2000:], "library": None, "device": None}
     return json.loads(run.stdout.strip().splitlines()[-1])
@@ -101,9 +101,8 @@ def host_flags(cpuinfo: str = "/proc/cpuinfo") -> list[str]:
 
 
 def _segments(data: bytes):
-    """(vaddr, offset, filesz, flags) of the PT_LOAD segments of a 64-bit little-endian ELF."""
-    import io
-
+    """The PT_LOAD segments ``(vaddr, offset, filesz, flags)`` of the ELF image ``data`` and the
+    address of :data:`SYMBOL` in it (None when it has no such symbol)."""
     try:
         from elftools.elf.elffile import ELFFile
     except ImportError as exc:

@@ -8,7 +8,8 @@
     ``R |sin(x / 97) cos(y / 61)|``, whose radius changes by up to R/61 px per pixel everywhere
     (neighbouring pixels' terms land R/30 rows apart: the cost is in the caches, not the work)
     is reported beside it.
-(b) Against the methods of MHU21 Fig. 11 at R = 60 as the image grows: brute-force dense
+(b) Against the methods of MHU21 Fig. 11 on the scene of (a) with R = 60 as the image grows
+    (and on the stress map at 1920x1080): brute-force dense
     splatting of the rasterised polygon, the Laplacian of it as the sparse kernel (LSR18
     spreadlets, FFT Poisson integration), dx dy (KTB09), all on the same radius table and fixed
     point (:mod:`runtime_cl.polygon_baselines`; dense and dx dy are checked bit-identical).
@@ -176,26 +177,34 @@ def _methods(repeats, quick):
     rng = np.random.default_rng(1)
     for h, w in sizes:
         img = rng.random((h, w, 3)).astype(np.float32)
-        rad = dof_radius(h, w, 60.0)
-        row = {"image": [w, h]}
-        ref, _ = sp.render(img, rad, fixed=True)
-        methods = {"polygon": lambda: sp.render(img, rad)}
-        for m, b in base.items():
-            if m != "dense" or h * w <= dense_max:
-                methods[m] = (lambda b=b: b.render(img, rad))
-        for m, fn in methods.items():
-            fn()                                                  # warm-up (tables, compiles)
-            ms, out, info = _best(fn, repeats if m != "dense" else 1)
-            row[m] = {"wall_ms": ms, "kernel_ms": info["kernel_ms"],
-                      "terms_per_pixel": info.get("terms_per_pixel")}
-        for m in ("dense", "dxdy"):
-            if m in base and m in row:
-                same, _ = base[m].render(img, rad, fixed=True)
-                row[m]["bit_identical_to_polygon"] = bool(np.array_equal(same, ref))
-        row["speedup_over"] = {m: row[m]["wall_ms"] / row["polygon"]["wall_ms"] for m in methods if m != "polygon"}
-        rows.append(row)
+        for name, rad in (("scene", scene_radius(dof_scene_depth(h, w), 60.0)),
+                          ("stress", dof_radius(h, w, 60.0))):
+            if name == "scene" or (h, w) == (1080, 1920):
+                rows.append(_method_row(sp, base, img, rad, name, repeats, dense_max))
     return {"shape": "octagon", "max_radius_px": 60, "rows": rows,
             "note": "dense (O(r^2) terms) only up to 960x540"}
+
+
+def _method_row(sp, base, img, rad, radius_map, repeats, dense_max):
+    """One image of (b): every method's best wall time, and the bit-exactness checks."""
+    h, w, _ = img.shape
+    row = {"image": [w, h], "radius_map": radius_map}
+    ref, _ = sp.render(img, rad, fixed=True)
+    methods = {"polygon": lambda: sp.render(img, rad)}
+    for m, b in base.items():
+        if m != "dense" or h * w <= dense_max:
+            methods[m] = (lambda b=b: b.render(img, rad))
+    for m, fn in methods.items():
+        fn()                                                  # warm-up (tables, compiles)
+        ms, out, info = _best(fn, repeats if m != "dense" else 1)
+        row[m] = {"wall_ms": ms, "kernel_ms": info["kernel_ms"],
+                  "terms_per_pixel": info.get("terms_per_pixel")}
+    for m in ("dense", "dxdy"):
+        if m in row:
+            same, _ = base[m].render(img, rad, fixed=True)
+            row[m]["bit_identical_to_polygon"] = bool(np.array_equal(same, ref))
+    row["speedup_over"] = {m: row[m]["wall_ms"] / row["polygon"]["wall_ms"] for m in methods if m != "polygon"}
+    return row
 
 
 def _uniform_vs_fft(repeats, quick):

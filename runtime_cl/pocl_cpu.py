@@ -6,12 +6,12 @@ rejects as a target CPU, so every kernel build fails with ``unknown target CPU '
 PoCL 3.0 has no setting that names the CPU instead (its build options reject ``-target-cpu``).
 
 ``--patch`` rewrites two instructions of ``pocl_get_llvm_cpu_name`` in the libpocl this Python
-loads: it always takes its empty-name branch, and that branch returns the x86-64
-micro-architecture level the host's flags allow (``x86-64-v4``, ``-v3``, ``-v2`` or ``x86-64``,
-names LLVM 14 knows, from its own string table). The function's bytes are checked first against
-the PoCL 3.0 build this was written for (any other is refused); the file is replaced
-atomically; ``pip install --force-reinstall pyopencl`` undoes it. A CPU that LLVM 14 knows
-builds kernels as it is, and nothing is patched.
+loads: it always takes its empty-name branch, and that branch returns the x86-64 level of the
+kernel library PoCL loads on this host (``x86-64-v4`` for its AVX-512 library, ``x86-64-v3``
+for AVX2; names LLVM 14 knows, from its own string table). The function's bytes are checked
+first against the PoCL 3.0 build this was written for (any other is refused); the file is
+replaced atomically, the original kept beside it (``--restore`` puts it back). A CPU that
+LLVM 14 knows builds kernels as it is, and nothing is patched.
 """
 from __future__ import annotations
 
@@ -44,11 +44,15 @@ _ORIGINAL = (bytes.fromhex("55534883ec08e8"), None,
              bytes.fromhex("c60418004883c4085b5dc30f1f840000000000"
                            "bf08000000bb07000000488d2d"), None, bytes.fromhex("ebc7"))
 _JUMP = bytes.fromhex("eb38909090")  # at +0x06: jmp +0x40 (the empty-name branch), nops
-_LEVELS = (  # (LLVM name, /proc/cpuinfo flags it needs on top of the previous level)
-    ("x86-64", ()),
-    ("x86-64-v2", ("cx16", "lahf_lm", "popcnt", "sse4_1", "sse4_2", "ssse3")),
-    ("x86-64-v3", ("avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "abm", "movbe", "xsave")),
-    ("x86-64-v4", ("avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl")),
+# PoCL loads the kernel library built for the host's vector extension (avx512, avx2, ...; its
+# own feature test), and the target CPU must have the same ones: code built for fewer passes
+# vectors to that library in other registers and computes garbage (seen here with x86-64-v3 on
+# an AVX-512 host). So the level mirrors PoCL's choice. CPUs newer than LLVM 14 (2022) all have
+# AVX2; older ones LLVM 14 names itself.
+_LEVELS = (  # (LLVM name, PoCL's library variant, /proc/cpuinfo flags the name assumes)
+    ("x86-64-v4", "avx512f", ("avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl")),
+    ("x86-64-v3", "avx2", ("avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "abm", "movbe",
+                           "xsave", "cx16", "lahf_lm", "popcnt", "sse4_1", "sse4_2", "ssse3")),
 )
 _PROBE = r"""
 import json, pyopencl as cl
@@ -80,16 +84,14 @@ def probe() -> dict:
     return json.loads(run.stdout.strip().splitlines()[-1])
 
 
-def cpu_level(flags) -> str:
-    """The highest x86-64 micro-architecture level whose flags are all in ``flags``."""
-    have, name = set(flags), _LEVELS[0][0]
-    need: set = set()
-    for level, extra in _LEVELS:
-        need |= set(extra)
-        if not need <= have:
-            break
-        name = level
-    return name
+def cpu_level(flags) -> str | None:
+    """The x86-64 level that matches the kernel library PoCL picks for a host with ``flags``,
+    None if it is neither an AVX-512 nor an AVX2 machine (or lacks a flag the level assumes)."""
+    have = set(flags)
+    for name, variant, need in _LEVELS:
+        if variant in have:   # PoCL's pick; the level's other flags must be there too
+            return name if set(need) <= have else None
+    return None
 
 
 def host_flags(cpuinfo: str = "/proc/cpuinfo") -> list[str]:
@@ -243,6 +245,10 @@ def main(argv=None) -> int:
         print(f"PoCL cannot build a kernel: {error}", file=sys.stderr)
         return 1
     level = cpu_level(host_flags())
+    if level is None:
+        print("PoCL's LLVM 14 does not know this CPU, and it is no AVX2 or AVX-512 machine this "
+              "patch can name; install a PoCL built with a newer LLVM", file=sys.stderr)
+        return 1
     if not args.patch:
         why = next(line.strip() for line in error.splitlines() if "unknown target CPU" in line)
         print(f"PoCL's LLVM 14 does not know this CPU ({why}); "

@@ -60,6 +60,17 @@ def test_bands_start_from_the_exact_state(name):
         uniform.bands_per_unit, uniform.band_rows = 2, 512
 
 
+@pytest.mark.parametrize("ch", [1, 2, 4])
+def test_every_step_width_is_brute_force_exact(ch):
+    """The vectors per step (-DCH, picked by the device's vector width) change no sum."""
+    sp = PolygonSplatter(*shape("hexagon"))
+    sp._uniform.ch = ch
+    img = scene(np.random.default_rng(ch), 37, 53, 3)   # 159 lanes: a partial last step
+    out, info = sp.render(img, 9.0, fixed=True)
+    np.testing.assert_array_equal(out, splat_fixed(img, 9.0, sp.polygon, info["exponent"][0],
+                                                   uniform=True))
+
+
 def test_kernel_larger_than_the_image():
     rng = np.random.default_rng(5)
     sp = splatter("octagon")

@@ -28,8 +28,8 @@ $(LLVM): $(STAMP)
 	$(VPY) -m lab.llvm_check
 	touch $@
 
-# PoCL 3.0's LLVM 14 cannot name CPUs newer than itself (AMD Zen 5): kernels would not build.
-# runtime_cl.pocl_cpu patches its CPU name to the host's x86-64 level where that is so.
+# PoCL 3.0's LLVM 14 cannot name CPUs newer than itself (AMD Zen 5): no kernel would build.
+# runtime_cl.pocl_cpu then names the x86-64 level of the kernel library PoCL loads (else no-op).
 $(POCL): $(STAMP)
 	$(VPY) -m runtime_cl.pocl_cpu --patch
 	touch $@

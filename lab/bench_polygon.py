@@ -56,9 +56,9 @@ def dof_scene_depth(h: int, w: int, fov_x_deg: float = 40.0) -> np.ndarray:
     with np.errstate(divide="ignore"):
         ground = np.where(d[..., 1] < 0, -1.0 / d[..., 1], np.inf)
     z = np.minimum(z, ground)
+    a = (d * d).sum(-1)
     for cx, cy, cz, r in _SPHERES:               # ray p = t d, |p - c| = r; depth = t (d_z = 1)
-        a = (d * d).sum(-1)
-        b = d @ np.array([cx, cy, cz])
+        b = d[..., 0] * cx + d[..., 1] * cy + d[..., 2] * cz   # (not BLAS: its threads spin on)
         disc = b * b - a * (cx * cx + cy * cy + cz * cz - r * r)
         t = (b - np.sqrt(np.maximum(disc, 0))) / a
         z = np.where((disc > 0) & (t > 0) & (t < z), t, z)

@@ -201,10 +201,7 @@ class UniformBlur:
         peaks = np.empty(h, np.uint32)
         peak_buf = self._buffer("peaks", h * 4, "row peaks")
         events = [row_peak(queue, (h,), (1,), img_buf, np.int32(w * c), peak_buf)]
-        cl.enqueue_copy(queue, peaks, peak_buf, wait_for=events)
-        if peaks.max() >= 0x7F800000:
-            raise non_finite_error(img)
-        e = uniform_exponent(float(peaks.max().view(np.float32)), t)
+        queue.flush()   # the host's set-up below runs while the device finds the peak
 
         # Region columns [x0, x1): every column where some direction's differences are non-zero
         # (b >= 0 lines are summed from the left, b < 0 from the right); x0 aligned so that
@@ -257,15 +254,19 @@ class UniformBlur:
         out = np.empty((h, w, c), np.int64 if fixed else np.float32)
         out_buf = cl.Buffer(sp.device.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=out)
+        tables = [sp._upload(a) for a in (bands, tinfo, taps[:, 0].copy(), taps[:, 1].copy(),
+                                          istart, itaps, runs)]
+        cl.enqueue_copy(queue, peaks, peak_buf, wait_for=events)   # only e waits for the peak
+        if peaks.max() >= 0x7F800000:
+            raise non_finite_error(img)
+        e = uniform_exponent(float(peaks.max().view(np.float32)), t)
         factor = np.ldexp(1.0, -e) / t.area
         events.append(bands_kernel(
             queue, (n_bands,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
             np.int32((int(ox.max()) - x0) * c), q, np.int64(slab), np.int32(ql), np.int32(qrow0),
             np.int32(qlast), np.int32(qlane0),
-            np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), sp._upload(bands),
-            sp._dirs, sp._upload(tinfo), sp._upload(taps[:, 0].copy()),
-            sp._upload(taps[:, 1].copy()), sp._upload(istart), sp._upload(itaps), sp._upload(runs),
-            np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor), out_buf, out_buf,
+            np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), tables[0], sp._dirs,
+            *tables[1:], np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor), out_buf, out_buf,
             np.int32(1 if fixed else 0)))
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
                                           out.dtype, wait_for=events[-1:], is_blocking=True)

@@ -58,8 +58,11 @@ _PROBE = r"""
 import json, pyopencl as cl
 out = {"ok": False, "error": None, "library": None, "device": None}
 try:
-    dev = [d for p in cl.get_platforms() for d in p.get_devices()
-           if "portable computing language" in p.name.lower()][0]
+    devs = [d for p in cl.get_platforms() for d in p.get_devices()
+            if "portable computing language" in p.name.lower()]
+    if not devs:
+        raise RuntimeError("no PoCL OpenCL platform; install it: pip install pocl-binary-distribution")
+    dev = devs[0]
     out["device"] = dev.version
     ctx = cl.Context([dev])
     cl.Program(ctx, "__kernel void k(__global float *a) { a[0] = 1.0f; }").build()

@@ -30,7 +30,6 @@ spreadlets (the faint parts of lens PSFs), and sparsify takes 30 - 80 % longer (
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Sequence
 

@@ -228,7 +228,7 @@ def _uniform_vs_fft(repeats, quick):
         rows = []
         for n in sizes:
             img = rng.random((n, n, 3)).astype(np.float32)
-            runs = {"polygon": lambda: sp.render(img, 60.0),
+            runs = {"polygon": lambda img=img: sp.render(img, 60.0),
                     "fft": fft_blur(img, kernel, (-y0, -x0), pow2=False),
                     "fft_pow2": fft_blur(img, kernel, (-y0, -x0), pow2=True)}
             res = {m: None for m in runs}

@@ -21,9 +21,10 @@
     rectified with D (16 terms). Target: >= 5x (median over repeats).
 
 Every time is a wall-clock call from a host image to a host image (both sides: validation,
-kernels or FFTs, output allocation), the methods of a row interleaved in every repeat, on a
-shared 2-core machine: ratios are taken within a repeat and reported as median and range
-(``ratio_*``), single times as the best of the repeats; ``kernel_ms`` are OpenCL event times.
+kernels or FFTs, output allocation), the methods of a row interleaved in every repeat (their
+order rotating in (c), alternating in (a)), on a shared 2-core machine: ratios are taken within
+a repeat and reported as median and range (``ratio_*``), single times as the best of the
+repeats; ``kernel_ms`` are OpenCL event times.
 """
 from __future__ import annotations
 
@@ -235,10 +236,13 @@ def _uniform_vs_fft(repeats, quick):
             for m in runs:
                 runs[m]()
             times = {m: [] for m in runs}
-            for _ in range(repeats):
-                for m, fn in runs.items():
+            names = list(runs)
+            for i in range(repeats):
+                # rotate: each method follows each other one (whose memory traffic leaves the
+                # caches cold and fresh pages to fault in) equally often
+                for m in names[i % len(names):] + names[:i % len(names)]:
                     t = time.perf_counter()
-                    res[m] = fn()
+                    res[m] = runs[m]()
                     times[m].append((time.perf_counter() - t) * 1e3)
             pm = np.array(times["polygon"])
             diff = float(np.abs(res["polygon"][0] - res["fft"][0]).max())

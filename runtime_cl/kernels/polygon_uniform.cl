@@ -16,7 +16,9 @@
 // channels go through one pass; 16 lanes per vector. Region columns [X0, X1) cover every column
 // where some G_d is non-zero; q holds zeros outside the image and covers every tap.
 // Exactness: G in int32 (the host bounds sum |v_t| |q| < 2^31), everything else in wrapping
-// 64-bit integers, so sums are exact and independent of order.
+// 64-bit integers, so sums are exact and independent of order. With `stream` (large outputs,
+// the host aligns them to a cache line) colour vectors are stored non-temporally: whole lines
+// the cache neither reads first nor keeps.
 //
 // -D constants: NC (channels), NDIR (directions), RB (ring rows = max |b| + 1), PAD (zero lanes
 // either side of a ring row, a multiple of 16 >= max a * NC), CH (vectors per step of the image's
@@ -155,7 +157,7 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
                             __global const int4 *runs, const int n_runs,
                             __global long *scratch, const long scratch_stride,
                             const double factor, __global float *out, __global long *fixed_out,
-                            const int fixed)
+                            const int fixed, const int stream)
 {
     const int band = get_global_id(0), y0 = bands[band], y1 = bands[band + 1];
     __global int *q = qall + band * slab_stride - (long)(y0 - QROW0) * QL;   // q + y * QL: row y
@@ -249,7 +251,11 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
                 } else {
                     const float16 f = convert_float16(convert_double16(a) * factor);
                     if (l0 + 16 <= out_lanes) {
-                        *(__global float16u *)(out + o) = f;
+                        __global float *dst = out + o;
+                        if (stream && ((size_t)dst & 63) == 0)   // a whole line, not read first
+                            __builtin_nontemporal_store(f, (__global float16 *)dst);
+                        else
+                            *(__global float16u *)dst = f;
                     } else {
                         float fv[16];
                         *(float16 *)fv = f;

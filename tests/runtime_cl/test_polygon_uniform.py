@@ -71,6 +71,20 @@ def test_every_step_width_is_brute_force_exact(ch):
                                                    uniform=True))
 
 
+def test_streamed_output_is_the_cached_one(monkeypatch):
+    """Large outputs are stored non-temporally into a cache-line aligned array: same colours."""
+    import runtime_cl.polygon_uniform as pu
+
+    sp = PolygonSplatter(*shape("hexagon"))
+    img = scene(np.random.default_rng(5), 1100, 1000, 3)     # 13 MB of output: streamed
+    streamed, _ = sp.render(img, 20.0)
+    assert streamed.nbytes >= pu.STREAM_BYTES and streamed.ctypes.data % 64 == 0
+    monkeypatch.setattr(pu, "STREAM_BYTES", 1 << 40)
+    cached, _ = sp.render(img, 20.0)
+    np.testing.assert_array_equal(streamed, cached)
+    assert streamed.shape == img.shape and streamed.flags.writeable and streamed.flags.c_contiguous
+
+
 def test_kernel_larger_than_the_image():
     rng = np.random.default_rng(5)
     sp = splatter("octagon")

@@ -50,15 +50,14 @@ def diagnose(say=print) -> list[str]:
     except Exception as exc:  # noqa: BLE001
         problems.append(f"OpenCL: {exc}; install PoCL: .venv/bin/pip install pocl-binary-distribution")
     else:
-        from runtime_cl.pocl_cpu import FIX, probe
+        from runtime_cl.pocl_cpu import probe, problem
 
         built = probe()
-        if built["ok"]:
-            say(f"  ok   PoCL builds kernels ({built['device']})")
-        elif "unknown target CPU" in (built["error"] or ""):
-            problems.append(f"PoCL's LLVM does not know this CPU, no kernel builds; fix it: {FIX}")
+        msg = problem(built)
+        if msg:
+            problems.append(msg)
         else:
-            problems.append(f"PoCL cannot build a kernel: {built['error']}")
+            say(f"  ok   PoCL builds kernels ({built['device']})")
     say("problems:" if problems else "everything splatlab needs is here")
     for p in problems:
         say(f"  - {p}")

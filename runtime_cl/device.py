@@ -93,11 +93,10 @@ class Device:
         try:
             program = cl.Program(self.context, source).build(options=list(options))
         except cl.RuntimeError as exc:
-            hint = ""
-            if "unknown target CPU" in str(exc):
-                from .pocl_cpu import FIX
+            from .pocl_cpu import FIX, UNKNOWN_CPU
 
-                hint = f"\nPoCL's LLVM does not know this CPU; fix it with `{FIX}`"
+            hint = (f"\nPoCL's LLVM does not know this CPU; fix it with `{FIX}`"
+                    if UNKNOWN_CPU in str(exc) else "")
             raise RuntimeError(f"OpenCL build of {files} with {options} failed:\n{exc}{hint}") from exc
         record = BuildRecord(files, options, (time.perf_counter() - start) * 1e3, True)
         self._programs[key] = program

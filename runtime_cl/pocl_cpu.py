@@ -27,11 +27,12 @@ from pathlib import Path
 
 from .atomic_file import atomic_path
 
-__all__ = ["probe", "cpu_level", "host_flags", "patch_bytes", "patched_name", "patch_library",
+__all__ = ["probe", "problem", "cpu_level", "host_flags", "patch_bytes", "patched_name", "patch_library",
            "restore_library", "backup_path", "FIX"]
 
 SYMBOL = "pocl_get_llvm_cpu_name"
 FIX = f"{sys.executable} -m runtime_cl.pocl_cpu --patch"
+UNKNOWN_CPU = "unknown target CPU"   # the build error of a CPU that LLVM 14 calls "generic"
 
 # pocl_get_llvm_cpu_name of PoCL 3.0 (pocl-binary-distribution 3.0) as compiled, None where a
 # rel32 displacement sits (call getHostCPUName/malloc/strncpy, lea of "generic"):
@@ -85,6 +86,17 @@ def probe() -> dict:
     if run.returncode != 0:
         return {"ok": False, "error": run.stderr.strip()[-2000:], "library": None, "device": None}
     return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def problem(state: dict | None = None) -> str | None:
+    """None when PoCL builds kernels (``state`` from :func:`probe`, probed if not given), else
+    one line saying why and what to do."""
+    state = probe() if state is None else state
+    if state["ok"]:
+        return None
+    if UNKNOWN_CPU in (state["error"] or ""):
+        return f"PoCL's LLVM 14 does not know this CPU, no kernel builds; fix it: {FIX}"
+    return f"PoCL cannot build a kernel: {state['error']}"
 
 
 def cpu_level(flags) -> str | None:
@@ -178,10 +190,7 @@ def patch_bytes(data: bytes, name: str) -> bytes:
     if not _matches_original(data[f:f + 0x53]):
         raise ValueError(f"{SYMBOL} is not the PoCL 3.0 code this patch knows; install "
                          "pocl-binary-distribution==3.0 or a PoCL whose LLVM knows this CPU")
-    # LLVM's CPU table holds "x86-64-v2\0...": a level is a NUL-delimited string, plain
-    # "x86-64" the first six bytes of "x86-64-v2".
-    key = name if name != "x86-64" else "x86-64-v2"
-    at = data.find(b"\0" + key.encode() + b"\0")
+    at = data.find(b"\0" + name.encode() + b"\0")   # LLVM's CPU table: NUL-delimited names
     if at < 0:
         raise ValueError(f"LLVM's CPU table in this libpocl has no {name!r}")
     target = _vaddr(loads, at + 1)
@@ -244,8 +253,8 @@ def main(argv=None) -> int:
         print(f"PoCL builds kernels: {state['device']}")
         return 0
     error = state["error"] or ""
-    if "unknown target CPU" not in error:
-        print(f"PoCL cannot build a kernel: {error}", file=sys.stderr)
+    if UNKNOWN_CPU not in error:
+        print(problem(state), file=sys.stderr)
         return 1
     level = cpu_level(host_flags())
     if level is None:
@@ -253,7 +262,7 @@ def main(argv=None) -> int:
               "patch can name; install a PoCL built with a newer LLVM", file=sys.stderr)
         return 1
     if not args.patch:
-        why = next(line.strip() for line in error.splitlines() if "unknown target CPU" in line)
+        why = next(line.strip() for line in error.splitlines() if UNKNOWN_CPU in line)
         print(f"PoCL's LLVM 14 does not know this CPU ({why}); "
               f"run `{FIX}` to make it use {level}", file=sys.stderr)
         return 1

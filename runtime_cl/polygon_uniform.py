@@ -278,8 +278,8 @@ class UniformBlur:
             np.int32((int(ox.max()) - x0) * c), q, np.int64(slab), np.int32(ql), np.int32(qrow0),
             np.int32(qlast), np.int32(qlane0),
             np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), tables[0], sp._dirs,
-            *tables[1:], np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor), out_buf, out_buf,
-            np.int32(1 if fixed else 0), np.int32(out.nbytes >= STREAM_BYTES)))
+            *tables[1:], np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor),
+            out_buf, out_buf, np.int32(1 if fixed else 0), np.int32(out.nbytes >= STREAM_BYTES)))
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
                                           out.dtype, wait_for=events[-1:], is_blocking=True)
         mapped.base.release(queue)

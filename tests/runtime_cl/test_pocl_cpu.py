@@ -94,8 +94,8 @@ def test_patch_library_keeps_the_original_and_restores_it(pocl_original, tmp_pat
     _, data = pocl_original
     lib = tmp_path / "libpocl-copy.so"
     lib.write_bytes(data)
-    pocl_cpu.patch_library(lib, "x86-64")
-    assert pocl_cpu.patched_name(lib.read_bytes()) == "x86-64"
+    pocl_cpu.patch_library(lib, "x86-64-v2")
+    assert pocl_cpu.patched_name(lib.read_bytes()) == "x86-64-v2"
     assert pocl_cpu.backup_path(lib).read_bytes() == data
     assert pocl_cpu.restore_library(lib)
     assert lib.read_bytes() == data and not pocl_cpu.backup_path(lib).exists()

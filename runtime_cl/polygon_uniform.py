@@ -238,20 +238,19 @@ class UniformBlur:
         ql = c * -(-(qlane0 + V * nvec - int(ox.min()) * c) // c)   # whole pixels per row
         qrow0, qlast = rb + int(oy.max()), -int(oy.min())   # rows above and below a band
 
-        def offsets(dx, dy, v):
-            return np.stack([-np.asarray(dy) * ql - np.asarray(dx) * c, v], 1).astype(np.int32)
-
         # sweep taps grouped by direction, then weight +1, -1, other (branch-free inner loops)
         kind = np.where(t.value == 1, 0, np.where(t.value == -1, 1, 2))
         order = np.lexsort((kind, t.direction))
-        taps = offsets(t.dx[order], t.dy[order], t.value[order])
         counts = np.zeros((len(dirs), 3), np.int64)
         np.add.at(counts, (t.direction, kind), 1)
         tinfo = np.zeros((len(dirs), 4), np.int32)
         tinfo[:, 0] = np.concatenate([[0], np.cumsum(counts.sum(1))[:-1]])
         tinfo[:, 1:] = counts
         istart = np.concatenate([[0], np.cumsum([len(p) for p in kern.init])]).astype(np.int32)
-        itaps = offsets(*np.concatenate(kern.init).T) if istart[-1] else np.zeros((1, 2), np.int32)
+        itaps = np.zeros((max(1, istart[-1]), 4), np.int32)   # (dy, lane offset, weight, 0)
+        if istart[-1]:
+            dx, dy, v = np.concatenate(kern.init).T
+            itaps[:, 0], itaps[:, 1], itaps[:, 2] = dy, -dx * c, v
         runs = np.zeros((len(kern.runs), 4), np.int32)
         runs[:, :3] = kern.runs
 
@@ -259,15 +258,15 @@ class UniformBlur:
         n_bands = max(1, min(h, int(self.bands_per_unit * units),
                              max(units, h // self.band_rows)))
         bands = np.linspace(0, h, n_bands + 1).round().astype(np.int32)
-        slab = (int(np.diff(bands).max()) + qrow0 + qlast) * ql
-        q = self._buffer("q", n_bands * slab * 4, "fixed-point image")
-        stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c
+        qr = qrow0 + qlast + 1
+        q = self._buffer("q", n_bands * qr * ql * 4, "fixed-point rows")
+        stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c + t.nnz
         scratch = self._buffer("scratch", n_bands * stride * 8, "band scratch")
         out = _aligned_empty((h, w, c), np.int64 if fixed else np.float32)
         out_buf = cl.Buffer(sp.device.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=out)
-        tables = [sp._upload(a) for a in (bands, tinfo, taps[:, 0].copy(), taps[:, 1].copy(),
-                                          istart, itaps, runs)]
+        taps = [np.asarray(a, np.int32) for a in (-t.dx[order] * c, t.dy[order], t.value[order])]
+        tables = [sp._upload(a) for a in (bands, tinfo, *taps, istart, itaps, runs)]
         cl.enqueue_copy(queue, peaks, peak_buf, wait_for=events)   # only e waits for the peak
         if peaks.max() >= 0x7F800000:
             raise non_finite_error(img)
@@ -275,10 +274,11 @@ class UniformBlur:
         factor = np.ldexp(1.0, -e) / t.area
         events.append(bands_kernel(
             queue, (n_bands,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
-            np.int32((int(ox.max()) - x0) * c), q, np.int64(slab), np.int32(ql), np.int32(qrow0),
+            np.int32((int(ox.max()) - x0) * c), q, np.int32(qr), np.int32(ql), np.int32(qrow0),
             np.int32(qlast), np.int32(qlane0),
             np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), tables[0], sp._dirs,
-            *tables[1:], np.int32(len(runs)), scratch, np.int64(stride), np.float64(factor),
+            *tables[1:5], np.int32(t.nnz), *tables[5:], np.int32(len(runs)), scratch,
+            np.int64(stride), np.float64(factor),
             out_buf, out_buf, np.int32(1 if fixed else 0), np.int32(out.nbytes >= STREAM_BYTES)))
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
                                           out.dtype, wait_for=events[-1:], is_blocking=True)

@@ -67,18 +67,6 @@ inline void quantise_row(__global const float *image, const int W, const int H, 
 
 inline int slot(int y) { return ((y % RB) + RB) % RB; }
 
-// Sum over `n` taps (q offset, weight) at q + base, in int64, for one 16-lane vector.
-inline long16 taps64(__global const int *q, const long base, __global const int2 *tap,
-                     const int n) {
-    long16 s = 0;
-    for (int t = 0; t < n; ++t) {
-        const int2 tp = tap[t];
-        const long16 x = convert_long16(LOADI(q + base + tp.x));
-        if (tp.y == 1) s += x; else if (tp.y == -1) s -= x; else s += x * (long)tp.y;
-    }
-    return s;
-}
-
 // G_d at the 16 lanes from qv: taps (first, n with weight +1, then -1, then others in tval).
 inline int16 gather(__global const int *qv, __global const int *toff, __global const int *tval,
                     const int4 ti) {
@@ -139,47 +127,53 @@ inline long16 advance(const int2 d, const int16 g, const int v, __global long *c
 }
 
 // One work item per band of rows [bands[i], bands[i + 1]); see the file comment.
-// The band quantises the image rows its taps read into its own slab of q, each just before its
-// first use (rows y0 - QROW0 .. y1 - 1 + QLAST): q index of (row y, region lane L) is
-// (y - y0 + QROW0) * QL + QLANE0 + L in the slab.
+// The band quantises the image rows its taps read into its own ring of QR rows of q (rows
+// y - QROW0 .. y + QLAST while it sweeps row y), each just before its first use: the ring stays in
+// the caches, where a slab of every row went to memory and back. Row y is ring row y mod QR.
 // scratch per band: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
-// row prefix of q (QL + NC).
+// row prefix of q (QL + NC), the taps' q offsets from the current row (n_taps).
+#define QROW(y) (qr + (size_t)((((y) % QR) + QR) % QR) * QL)
 __kernel void uniform_bands(__global const float *image, const int W, const int H,
                             const float scale, const int LO,
-                            __global int *qall, const long slab_stride, const int QL,
+                            __global int *qall, const int QR, const int QL,
                             const int QROW0, const int QLAST, const int QLANE0,
                             const int nvec, const int vc0, const int vc1, const int out_lanes,
                             __global const int *bands,
                             __global const int2 *dirs,
-                            __global const int4 *tinfo, __global const int *toff,
-                            __global const int *tval,
-                            __global const int *istart, __global const int2 *itaps,
+                            __global const int4 *tinfo, __global const int *tdx,
+                            __global const int *tdy, __global const int *tval, const int n_taps,
+                            __global const int *istart, __global const int4 *itaps,
                             __global const int4 *runs, const int n_runs,
                             __global long *scratch, const long scratch_stride,
                             const double factor, __global float *out, __global long *fixed_out,
                             const int fixed, const int stream)
 {
     const int band = get_global_id(0), y0 = bands[band], y1 = bands[band + 1];
-    __global int *q = qall + band * slab_stride - (long)(y0 - QROW0) * QL;   // q + y * QL: row y
+    __global int *qr = qall + (size_t)band * QR * QL;
     const int RL = nvec * 16, RLP = RL + 2 * PAD;
     __global long *ring = scratch + band * scratch_stride;
     __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
     __global long *hq = acc + (vc1 - vc0) * 16;
+    __global int *toff = (__global int *)(hq + QL + NC);
     if (y0 >= y1) return;
     for (size_t i = 0; i < (size_t)NDIR * RB * RLP; ++i) ring[i] = 0;
     for (int y = y0 - QROW0; y <= y0 + QLAST; ++y)   // every row the start and row y0 read
-        quantise_row(image, W, H, scale, y, q + (long)y * QL, QL, LO);
+        quantise_row(image, W, H, scale, y, QROW(y), QL, LO);
 
-    // Ring state of rows y0 - |b| .. y0 - 1: the directional prefix of d's terms as taps.
+    // Ring state of rows y0 - |b| .. y0 - 1: the directional prefix of d's terms as taps
+    // (dy, lane offset, weight).
     for (int k = 0; k < NDIR; ++k) {
         const int b = dirs[k].y, nb = b < 0 ? -b : b;
         const int va = b < 0 ? vc0 : 0, vb = b < 0 ? nvec : vc1;
         for (int y = y0 - nb; y < y0; ++y) {
             __global long *row = ring + (size_t)(k * RB + slot(y)) * RLP + PAD;
-            const long base = (long)y * QL + QLANE0;
-            for (int v = va; v < vb; ++v)
-                STOREL(row + 16 * v, taps64(q, base + 16 * v, itaps + istart[k],
-                                            istart[k + 1] - istart[k]));
+            for (int t = istart[k]; t < istart[k + 1]; ++t) {
+                const int4 tp = itaps[t];
+                __global const int *src = QROW(y - tp.x) + QLANE0 + tp.y;
+                for (int v = va; v < vb; ++v)
+                    STOREL(row + 16 * v,
+                           LOADL(row + 16 * v) + convert_long16(LOADI(src + 16 * v)) * (long)tp.z);
+            }
         }
     }
     // Column sums of row y0 - 1: per kernel row ky, its runs [dx0, dx1] of pixels as differences
@@ -188,7 +182,7 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
     for (int r = 0; r < n_runs; ++r) {
         const int4 run = runs[r];
         if (r == 0 || runs[r - 1].x != run.x) {
-            __global const int *qrow = q + (long)(y0 - 1 - run.x) * QL;
+            __global const int *qrow = QROW(y0 - 1 - run.x);
             long sum[NC];
             for (int c = 0; c < NC; ++c) hq[c] = sum[c] = 0;
             for (int j = 0; j < QL; j += NC)
@@ -202,8 +196,10 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
     }
 
     for (int y = y0; y < y1; ++y) {
-        if (y > y0) quantise_row(image, W, H, scale, y + QLAST, q + (long)(y + QLAST) * QL, QL, LO);
-        __global const int *qy = q + (long)y * QL + QLANE0;
+        if (y > y0) quantise_row(image, W, H, scale, y + QLAST, QROW(y + QLAST), QL, LO);
+        __global const int *qy = QROW(y) + QLANE0;
+        for (int t = 0; t < n_taps; ++t)   // the taps' ring rows, relative to row y's
+            toff[t] = (int)(QROW(y - tdy[t]) - QROW(y)) + tdx[t];
         int2 d[NDIR];
         int4 ti[NDIR];
         __global long *cur[NDIR];

@@ -22,7 +22,7 @@ the output is the exact integer sum of ``q`` over the kernel (the brute-force sp
 rounded once to float32. Every ``q`` is off by at most half a unit, so an output is off by at
 most ``2^-(e+1) <= 2^-(30 - ceil(log2 s))`` of the largest colour, ``s`` the largest
 ``sum_t |v_t|`` of a direction (``2^-27`` for the built-in hexagon's ``s = 8``; see
-:func:`uniform_exponent`).
+:func:`exponent_bits`).
 """
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ from .errors import InputError
 from .polygon_kernel import rasterize_polygon
 from .polygon_terms import PolygonTerms
 
-__all__ = ["UniformBlur", "uniform_exponent", "directional_prefix_taps", "pixel_runs",
+__all__ = ["UniformBlur", "exponent_bits", "directional_prefix_taps", "pixel_runs",
            "non_finite_error"]
 
 V = 16   # lanes per vector in the kernel
@@ -68,16 +68,16 @@ def non_finite_error(image: np.ndarray) -> InputError:
                       "replace NaN/inf colours before blurring")
 
 
-def uniform_exponent(peak: float, terms: PolygonTerms) -> int:
-    """Fixed-point exponent ``e`` for the image's largest ``|colour|`` ``peak``.
+def exponent_bits(terms: PolygonTerms) -> int:
+    """``ceil(log2 s)``, ``s`` the largest ``sum_t |v_t|`` of a direction of ``terms``.
 
-    ``q = rint(colour 2^e)`` keeps every direction's gathered sum ``sum_t v_t q`` within int32:
-    ``2^e peak < 2^(30 - ceil(log2 s))`` with ``s`` the largest ``sum_t |v_t|`` of a direction.
+    The kernel (``uniform_bands``) takes the fixed-point exponent ``e`` from the image's largest
+    ``|colour|`` ``peak``: the largest with ``2^e peak < 2^(30 - exponent_bits)``, so every
+    direction's gathered sum ``sum_t v_t q`` of ``q = rint(colour 2^e)`` stays within int32
+    (``e <= 126``; ``e = 0`` for a black image).
     """
-    if peak <= 0:
-        return 0
     s = max(int(np.abs(terms.value[terms.direction == k]).sum()) for k in np.unique(terms.direction))
-    return min(30 - math.frexp(peak)[1] - (s - 1).bit_length(), 126)
+    return (s - 1).bit_length()
 
 
 def directional_prefix_taps(dx, dy, value, direction) -> np.ndarray:
@@ -126,6 +126,28 @@ class _Kernel:
     runs: np.ndarray      # (dy, dx0, dx1)
 
 
+# uniform_bands' arguments, in the kernel's order
+_ARGS = {n: i for i, n in enumerate(
+    "image W H LO q QR QL QROW0 QLAST QLANE0 nvec vc0 vc1 out_lanes bands dirs tinfo tdx tdy tval "
+    "n_taps istart itaps runs n_runs scratch scratch_stride peaks sbits area exponent out "
+    "fixed_out fixed stream".split())}
+NONFINITE = 0x7FFFFFFF   # the exponent the kernel reports for an image with NaN or inf
+PLANS = 8                # (kernel, image shape) set-ups kept
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """Everything of a call that depends only on the kernel and the image's shape: a
+    ``uniform_bands`` kernel object with those arguments set, and the buffers they name."""
+
+    kernel: object
+    n_bands: int
+    q_bytes: int
+    scratch_bytes: int
+    area: int
+    tables: tuple         # uploaded tables (the kernel's arguments hold no reference)
+
+
 class UniformBlur:
     """Blur by one polygon for every pixel, exactly (see the module docstring).
 
@@ -148,20 +170,21 @@ class UniformBlur:
         self.band_rows = band_rows
         self._programs: dict = {}
         self._entries: dict = {}     # table entry -> _Kernel, for the table's current scale
+        self._plans: dict = {}       # (entry, shape, banding) -> _Plan, the same scale
         self._scale = None
         self._buffers: dict = {}
 
-    def _kernels(self, channels: int):
-        if channels not in self._programs:
+    def _program(self, channels: int):
+        key = (channels, self.ch)
+        if key not in self._programs:
             sp = self.sp
             rb = int(np.abs(sp.directions[:, 1]).max()) + 1
             pad = V * -(-sp.amax * channels // V)
             prg, _ = sp.device.program("polygon_uniform.cl", [f"-DNC={channels}",
                                        f"-DNDIR={len(sp.directions)}", f"-DRB={rb}", f"-DPAD={pad}",
                                        f"-DCH={self.ch}"])
-            self._programs[channels] = (sp._cl.Kernel(prg, "row_peak"),
-                                        sp._cl.Kernel(prg, "uniform_bands"), rb, pad)
-        return self._programs[channels]
+            self._programs[key] = (prg, sp._cl.Kernel(prg, "row_peak"), rb, pad)
+        return self._programs[key]
 
     def _buffer(self, name: str, nbytes: int, what: str):
         """A device buffer of at least ``nbytes`` kept between calls (fresh memory would be
@@ -171,11 +194,7 @@ class UniformBlur:
             self._buffers[name] = self.sp._alloc(nbytes, what)
         return self._buffers[name]
 
-    def _entry(self, radius: float) -> _Kernel:
-        if self._scale is not self.sp.table.scale:   # the table grew: entries renumbered
-            self._entries.clear()
-            self._scale = self.sp.table.scale
-        e = int(self.sp.table.entry(np.float32(radius)))
+    def _entry(self, e: int, radius: float) -> _Kernel:
         if e not in self._entries:
             t = self.sp.table.terms[e]
             init = []
@@ -188,32 +207,22 @@ class UniformBlur:
             self._entries[e] = _Kernel(t, init, pixel_runs(self.sp.table.scale.polygon(radius)))
         return self._entries[e]
 
-    def render(self, img: np.ndarray, radius: float, fixed: bool = False):
-        """Blur the C-contiguous float32 (H, W, C) ``img`` by the polygon at ``radius``.
-
-        Returns ``(out, info)`` as :meth:`~runtime_cl.polygon_splat.PolygonSplatter.render`
-        (``fixed``: the int64 sums in units of ``2^-e / area``).
-
-        Raises
-        ------
-        InputError
-            ``img`` holds NaN or inf (found on the device, with the largest ``|colour|``).
-        """
-        sp, cl = self.sp, self.sp._cl
-        queue = sp.device.queue
-        h, w, c = img.shape
-        sp.table.ensure(float(radius))
-        kern = self._entry(radius)
+    def _plan(self, radius: float, shape) -> _Plan:
+        sp = self.sp
+        if self._scale is not sp.table.scale:   # the table grew: entries renumbered
+            self._entries.clear()
+            self._plans.clear()
+            self._scale = sp.table.scale
+        e = int(sp.table.entry(np.float32(radius)))
+        key = (e, shape, self.ch, self.bands_per_unit, self.band_rows)
+        if key in self._plans:
+            self._plans[key] = self._plans.pop(key)   # most recently used last
+            return self._plans[key]
+        kern = self._entry(e, radius)
         t = kern.terms
-        row_peak, bands_kernel, rb, pad = self._kernels(c)
+        h, w, c = shape
+        prg, _, rb, pad = self._program(c)
         dirs = sp.directions
-        img_buf = cl.Buffer(sp.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR,
-                            hostbuf=img)
-        # largest |colour| per row as float bits (NaN and inf above every finite value)
-        peaks = np.empty(h, np.uint32)
-        peak_buf = self._buffer("peaks", h * 4, "row peaks")
-        events = [row_peak(queue, (h,), (1,), img_buf, np.int32(w * c), peak_buf)]
-        queue.flush()   # the host's set-up below runs while the device finds the peak
 
         # Region columns [x0, x1): every column where some direction's differences are non-zero
         # (b >= 0 lines are summed from the left, b < 0 from the right); x0 aligned so that
@@ -229,7 +238,7 @@ class UniformBlur:
         nvec = max(vc1, -(-(right - x0) * c // V))
 
         # q rows cover every tap of the sweep (rows 0..h-1), the ring start (rows >= -max|b|)
-        # and the column-sum start (row >= -1 with the runs' dy); each band its own rows.
+        # and the column-sum start (row >= -1 with the runs' dy).
         init = [p for p in kern.init if len(p)]
         ox = np.concatenate([t.dx, *(p[:, 0] for p in init), kern.runs[:, 1], kern.runs[:, 2],
                              [0]])
@@ -259,29 +268,69 @@ class UniformBlur:
                              max(units, h // self.band_rows)))
         bands = np.linspace(0, h, n_bands + 1).round().astype(np.int32)
         qr = qrow0 + qlast + 1
-        q = self._buffer("q", n_bands * qr * ql * 4, "fixed-point rows")
         stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c + t.nnz
-        scratch = self._buffer("scratch", n_bands * stride * 8, "band scratch")
+        taps = [np.asarray(a, np.int32) for a in (-t.dx[order] * c, t.dy[order], t.value[order])]
+        tables = [sp._upload(a) for a in (bands, tinfo, *taps, istart, itaps, runs)]
+        kernel = sp._cl.Kernel(prg, "uniform_bands")
+        i32 = np.int32
+        for name, value in dict(
+                W=i32(w), H=i32(h), LO=i32((int(ox.max()) - x0) * c), QR=i32(qr), QL=i32(ql),
+                QROW0=i32(qrow0), QLAST=i32(qlast), QLANE0=i32(qlane0), nvec=i32(nvec),
+                vc0=i32(vc0), vc1=i32(vc1), out_lanes=i32(w * c), bands=tables[0], dirs=sp._dirs,
+                tinfo=tables[1], tdx=tables[2], tdy=tables[3], tval=tables[4], n_taps=i32(t.nnz),
+                istart=tables[5], itaps=tables[6], runs=tables[7], n_runs=i32(len(runs)),
+                scratch_stride=np.int64(stride), sbits=i32(exponent_bits(t)),
+                area=np.float64(t.area)).items():
+            kernel.set_arg(_ARGS[name], value)
+        plan = _Plan(kernel, n_bands, n_bands * qr * ql * 4, n_bands * stride * 8, t.area,
+                     tuple(tables))
+        self._plans[key] = plan
+        while len(self._plans) > PLANS:
+            self._plans.pop(next(iter(self._plans)))
+        return plan
+
+    def render(self, img: np.ndarray, radius: float, fixed: bool = False):
+        """Blur the C-contiguous float32 (H, W, C) ``img`` by the polygon at ``radius``.
+
+        Returns ``(out, info)`` as :meth:`~runtime_cl.polygon_splat.PolygonSplatter.render`
+        (``fixed``: the int64 sums in units of ``2^-e / area``).
+
+        Raises
+        ------
+        InputError
+            ``img`` holds NaN or inf (found on the device, with the largest ``|colour|``).
+        """
+        sp, cl = self.sp, self.sp._cl
+        queue = sp.device.queue
+        h, w, c = img.shape
+        sp.table.ensure(float(radius))
+        plan = self._plan(radius, img.shape)
+        row_peak = self._program(c)[1]
+        img_buf = cl.Buffer(sp.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR,
+                            hostbuf=img)
+        # largest |colour| per row as float bits (NaN and inf above every finite value); the
+        # bands kernel takes the exponent from them
+        peak_buf = self._buffer("peaks", h * 4, "row peaks")
+        events = [row_peak(queue, (h,), (1,), img_buf, np.int32(w * c), peak_buf)]
         out = _aligned_empty((h, w, c), np.int64 if fixed else np.float32)
         out_buf = cl.Buffer(sp.device.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=out)
-        taps = [np.asarray(a, np.int32) for a in (-t.dx[order] * c, t.dy[order], t.value[order])]
-        tables = [sp._upload(a) for a in (bands, tinfo, *taps, istart, itaps, runs)]
-        cl.enqueue_copy(queue, peaks, peak_buf, wait_for=events)   # only e waits for the peak
-        if peaks.max() >= 0x7F800000:
-            raise non_finite_error(img)
-        e = uniform_exponent(float(peaks.max().view(np.float32)), t)
-        factor = np.ldexp(1.0, -e) / t.area
-        events.append(bands_kernel(
-            queue, (n_bands,), (1,), img_buf, np.int32(w), np.int32(h), np.float32(2.0 ** e),
-            np.int32((int(ox.max()) - x0) * c), q, np.int32(qr), np.int32(ql), np.int32(qrow0),
-            np.int32(qlast), np.int32(qlane0),
-            np.int32(nvec), np.int32(vc0), np.int32(vc1), np.int32(w * c), tables[0], sp._dirs,
-            *tables[1:5], np.int32(t.nnz), *tables[5:], np.int32(len(runs)), scratch,
-            np.int64(stride), np.float64(factor),
-            out_buf, out_buf, np.int32(1 if fixed else 0), np.int32(out.nbytes >= STREAM_BYTES)))
+        e_buf = self._buffer("exponent", 4, "exponent")
+        k = plan.kernel
+        for name, value in (("image", img_buf), ("q", self._buffer("q", plan.q_bytes,
+                            "fixed-point rows")), ("scratch", self._buffer(
+                            "scratch", plan.scratch_bytes, "band scratch")), ("peaks", peak_buf),
+                            ("exponent", e_buf), ("out", out_buf), ("fixed_out", out_buf),
+                            ("fixed", np.int32(fixed)),
+                            ("stream", np.int32(out.nbytes >= STREAM_BYTES))):
+            k.set_arg(_ARGS[name], value)
+        events.append(cl.enqueue_nd_range_kernel(queue, k, (plan.n_bands,), (1,)))
+        e = np.zeros(1, np.int32)
+        cl.enqueue_copy(queue, e, e_buf, is_blocking=False)
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
-                                          out.dtype, wait_for=events[-1:], is_blocking=True)
+                                          out.dtype, is_blocking=True)   # in order: after both
         mapped.base.release(queue)
+        if e[0] == NONFINITE:
+            raise non_finite_error(img)
         return out, {"peak_ms": event_ms(events[0]), "sweep_ms": event_ms(events[1]),
-                     "exponent": np.full(c, e), "area": t.area, "bands": n_bands}
+                     "exponent": np.full(c, int(e[0])), "area": plan.area, "bands": plan.n_bands}

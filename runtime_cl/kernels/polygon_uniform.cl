@@ -65,6 +65,21 @@ inline void quantise_row(__global const float *image, const int W, const int H, 
     for (; l < QL; ++l) row[l] = 0;
 }
 
+#define NONFINITE 0x7fffffff
+
+// Fixed-point exponent e from the rows' peaks (float bits; runtime_cl.polygon_uniform
+// .exponent_bits): the largest with 2^e peak < 2^(30 - sbits), capped at 126, 0 for a black
+// image; NONFINITE if a colour is NaN or inf.
+inline int fixed_point_exponent(__global const uint *peak, const int n, const int sbits) {
+    uint m = 0;
+    for (int i = 0; i < n; ++i) m = max(m, peak[i]);
+    if (m >= 0x7f800000u) return NONFINITE;
+    if (m == 0) return 0;
+    const int eb = m >> 23;   // peak < 2^E (frexp's exponent), also for subnormal peaks
+    const int E = eb ? eb - 126 : 32 - (int)clz(m) - 149;
+    return min(30 - E - sbits, 126);
+}
+
 inline int slot(int y) { return ((y % RB) + RB) % RB; }
 
 // G_d at the 16 lanes from qv: taps (first, n with weight +1, then -1, then others in tval).
@@ -133,8 +148,7 @@ inline long16 advance(const int2 d, const int16 g, const int v, __global long *c
 // scratch per band: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
 // row prefix of q (QL + NC), the taps' q offsets from the current row (n_taps).
 #define QROW(y) (qr + (size_t)((((y) % QR) + QR) % QR) * QL)
-__kernel void uniform_bands(__global const float *image, const int W, const int H,
-                            const float scale, const int LO,
+__kernel void uniform_bands(__global const float *image, const int W, const int H, const int LO,
                             __global int *qall, const int QR, const int QL,
                             const int QROW0, const int QLAST, const int QLANE0,
                             const int nvec, const int vc0, const int vc1, const int out_lanes,
@@ -145,10 +159,16 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
                             __global const int *istart, __global const int4 *itaps,
                             __global const int4 *runs, const int n_runs,
                             __global long *scratch, const long scratch_stride,
-                            const double factor, __global float *out, __global long *fixed_out,
-                            const int fixed, const int stream)
+                            __global const uint *peaks, const int sbits, const double area,
+                            __global int *exponent, __global float *out,
+                            __global long *fixed_out, const int fixed, const int stream)
 {
     const int band = get_global_id(0), y0 = bands[band], y1 = bands[band + 1];
+    const int e = fixed_point_exponent(peaks, H, sbits);
+    if (band == 0) *exponent = e;
+    if (e == NONFINITE) return;
+    const float scale = as_float((uint)(e + 127) << 23);            // 2^e
+    const double factor = as_double((ulong)(1023 - e) << 52) / area;  // 2^-e / area, one rounding
     __global int *qr = qall + (size_t)band * QR * QL;
     const int RL = nvec * 16, RLP = RL + 2 * PAD;
     __global long *ring = scratch + band * scratch_stride;

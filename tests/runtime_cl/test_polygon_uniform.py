@@ -11,7 +11,7 @@ from polygon_reference import SHAPES, shape, splat_fixed
 from runtime_cl.errors import InputError
 from runtime_cl.polygon_kernel import directional_prefix_sum, rasterize_polygon
 from runtime_cl.polygon_splat import PolygonSplatter
-from runtime_cl.polygon_uniform import (directional_prefix_taps, pixel_runs, uniform_exponent)
+from runtime_cl.polygon_uniform import directional_prefix_taps, exponent_bits, pixel_runs
 
 _SPLATTERS = {}
 
@@ -130,11 +130,25 @@ def test_prefix_taps_need_lines_that_sum_to_zero():
         directional_prefix_taps([0, 2], [0, 2], [1, 0], (1, 1))
 
 
-def test_exponent_keeps_the_gathered_sums_in_int32():
-    t = splatter("hexagon").kernel_terms(60.0)
+@pytest.mark.parametrize("peak", [0.0, 1e-40, 1e-3, 0.7, 1.0, 1.2, 3e4, -5.0, 3e38])
+def test_exponent_keeps_the_gathered_sums_in_int32(peak):
+    """The device picks the exponent from the rows' peaks (subnormal, negative and the largest
+    floats too): every direction's gathered sum stays in int32, with at most two bits idle."""
+    sp = splatter("hexagon")
+    t = sp.kernel_terms(6.0)
     s = max(int(np.abs(t.value[t.direction == k]).sum()) for k in np.unique(t.direction))
-    for peak in (1e-3, 0.7, 1.0, 1.2, 3e4):
-        e = uniform_exponent(peak, t)
-        assert s * np.rint(np.float32(peak) * np.float32(2.0 ** e)) < 2 ** 31
-        assert s * peak * 2.0 ** e > 2 ** 28                  # and at most two bits are idle
-    assert uniform_exponent(0.0, t) == 0
+    assert exponent_bits(t) == (s - 1).bit_length()
+    img = np.zeros((9, 20, 3), np.float32)
+    img[7, 13, 1] = peak                      # one pixel of the last band
+    img[2, 3, 0] = np.float32(peak) / 3
+    out, info = sp.render(img, 6.0, fixed=True)
+    e = int(info["exponent"][0])
+    if peak == 0:
+        assert e == 0 and not out.any()
+        return
+    q = np.rint(np.float64(np.float32(peak)) * 2.0 ** e)
+    assert s * abs(q) < 2 ** 31
+    # at most two bits idle, but for the cap (2^126 is the largest float power of two)
+    assert e == 126 or s * abs(float(np.float32(peak))) * 2.0 ** e > 2 ** 28
+    assert (e == 126) == (abs(peak) < 1e-30)
+    np.testing.assert_array_equal(out, splat_fixed(img, 6.0, sp.polygon, e, uniform=True))

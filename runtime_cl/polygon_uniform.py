@@ -128,9 +128,9 @@ class _Kernel:
 
 # uniform_bands' arguments, in the kernel's order
 _ARGS = {n: i for i, n in enumerate(
-    "image W H LO q QR QL QROW0 QLAST QLANE0 nvec vc0 vc1 out_lanes bands dirs tinfo tdx tdy tval "
-    "n_taps istart itaps runs n_runs scratch scratch_stride peaks sbits area exponent out "
-    "fixed_out fixed stream".split())}
+    "image W H LO q QR QL QROW0 QLAST QLANE0 nvec vc0 vc1 out_lanes ctl nslots SUB min_take dirs "
+    "tinfo tdx tdy tval n_taps istart itaps runs n_runs scratch scratch_stride peaks sbits area "
+    "out fixed_out fixed stream".split())}
 NONFINITE = 0x7FFFFFFF   # the exponent the kernel reports for an image with NaN or inf
 PLANS = 8                # (kernel, image shape) set-ups kept
 
@@ -141,7 +141,8 @@ class _Plan:
     ``uniform_bands`` kernel object with those arguments set, and the buffers they name."""
 
     kernel: object
-    n_bands: int
+    workers: int
+    ctl: np.ndarray       # the kernel's control words at the start: exponent, start-ups, slots
     q_bytes: int
     scratch_bytes: int
     area: int
@@ -156,18 +157,24 @@ class UniformBlur:
     splatter : runtime_cl.polygon_splat.PolygonSplatter
         Supplies the device, the edge directions and the radius table (the same polygons,
         terms and pixel counts as its radius-map path).
-    bands_per_unit : float, default 2
-        Bands of rows per compute unit (more balance the load on a busy machine; each band
-        costs one start-up of O(kernel size x width)).
-    band_rows : int, default 512
-        Fewest rows per band beyond one band per compute unit (smaller images: fewer start-ups).
+    sub_rows : int, default 16
+        Rows per sub-band, the unit the workers claim and share (see ``kernels/
+        polygon_uniform.cl``).
+    regions : int, default 1
+        Regions of sub-bands at the start, region ``i`` for worker ``i`` (one per compute unit);
+        workers without work take the bottom half of the largest region left. More regions
+        than workers test the taking; one lets the workers split the image as they arrive.
+    min_take : int or None, default None
+        Fewest rows a worker takes from another's region (default: half the rows a start-up
+        re-reads, about half the kernel's height).
     """
 
-    def __init__(self, splatter, bands_per_unit: float = 2, band_rows: int = 512):
+    def __init__(self, splatter, sub_rows: int = 16, regions: int = 1, min_take=None):
         self.sp = splatter
         self.ch = vectors_per_step(splatter.device.device)
-        self.bands_per_unit = bands_per_unit
-        self.band_rows = band_rows
+        self.sub_rows = sub_rows
+        self.regions = regions
+        self.min_take = min_take
         self._programs: dict = {}
         self._entries: dict = {}     # table entry -> _Kernel, for the table's current scale
         self._plans: dict = {}       # (entry, shape, banding) -> _Plan, the same scale
@@ -214,7 +221,7 @@ class UniformBlur:
             self._plans.clear()
             self._scale = sp.table.scale
         e = int(sp.table.entry(np.float32(radius)))
-        key = (e, shape, self.ch, self.bands_per_unit, self.band_rows)
+        key = (e, shape, self.ch, self.sub_rows, self.regions, self.min_take)
         if key in self._plans:
             self._plans[key] = self._plans.pop(key)   # most recently used last
             return self._plans[key]
@@ -263,26 +270,32 @@ class UniformBlur:
         runs = np.zeros((len(kern.runs), 4), np.int32)
         runs[:, :3] = kern.runs
 
-        units = int(sp.device.device.max_compute_units)
-        n_bands = max(1, min(h, int(self.bands_per_unit * units),
-                             max(units, h // self.band_rows)))
-        bands = np.linspace(0, h, n_bands + 1).round().astype(np.int32)
+        workers = int(sp.device.device.max_compute_units)
+        sub = max(int(self.sub_rows), -(-h // 0xFFFF))   # sub-band numbers fit 16 bits
+        n_sub = -(-h // sub)
+        edges = np.linspace(0, n_sub, min(self.regions, n_sub) + 1).round().astype(np.uint32)
+        ctl = np.zeros(2 + max(workers, len(edges) - 1), np.uint32)   # slots: next | end << 16
+        ctl[2:len(edges) + 1] = edges[:-1] | edges[1:] << 16
+        # a start-up costs about as much as sweeping half the rows it re-reads (0.2 ms, ~70
+        # rows, for r = 60 at 1024 wide on a Zen 5): taking fewer rows than that loses time
+        take_rows = -(-(qrow0 + qlast + 1) // 2) if self.min_take is None else self.min_take
         qr = qrow0 + qlast + 1
         stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c + t.nnz
         taps = [np.asarray(a, np.int32) for a in (-t.dx[order] * c, t.dy[order], t.value[order])]
-        tables = [sp._upload(a) for a in (bands, tinfo, *taps, istart, itaps, runs)]
+        tables = [sp._upload(a) for a in (tinfo, *taps, istart, itaps, runs)]
         kernel = sp._cl.Kernel(prg, "uniform_bands")
         i32 = np.int32
         for name, value in dict(
                 W=i32(w), H=i32(h), LO=i32((int(ox.max()) - x0) * c), QR=i32(qr), QL=i32(ql),
                 QROW0=i32(qrow0), QLAST=i32(qlast), QLANE0=i32(qlane0), nvec=i32(nvec),
-                vc0=i32(vc0), vc1=i32(vc1), out_lanes=i32(w * c), bands=tables[0], dirs=sp._dirs,
-                tinfo=tables[1], tdx=tables[2], tdy=tables[3], tval=tables[4], n_taps=i32(t.nnz),
-                istart=tables[5], itaps=tables[6], runs=tables[7], n_runs=i32(len(runs)),
+                vc0=i32(vc0), vc1=i32(vc1), out_lanes=i32(w * c), nslots=i32(len(ctl) - 2),
+                SUB=i32(sub), min_take=i32(-(-take_rows // sub)), dirs=sp._dirs,
+                tinfo=tables[0], tdx=tables[1], tdy=tables[2], tval=tables[3], n_taps=i32(t.nnz),
+                istart=tables[4], itaps=tables[5], runs=tables[6], n_runs=i32(len(runs)),
                 scratch_stride=np.int64(stride), sbits=i32(exponent_bits(t)),
                 area=np.float64(t.area)).items():
             kernel.set_arg(_ARGS[name], value)
-        plan = _Plan(kernel, n_bands, n_bands * qr * ql * 4, n_bands * stride * 8, t.area,
+        plan = _Plan(kernel, workers, ctl, workers * qr * ql * 4, workers * stride * 8, t.area,
                      tuple(tables))
         self._plans[key] = plan
         while len(self._plans) > PLANS:
@@ -315,22 +328,22 @@ class UniformBlur:
         out = _aligned_empty((h, w, c), np.int64 if fixed else np.float32)
         out_buf = cl.Buffer(sp.device.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=out)
-        e_buf = self._buffer("exponent", 4, "exponent")
+        ctl_buf = sp._upload(plan.ctl)
         k = plan.kernel
         for name, value in (("image", img_buf), ("q", self._buffer("q", plan.q_bytes,
                             "fixed-point rows")), ("scratch", self._buffer(
                             "scratch", plan.scratch_bytes, "band scratch")), ("peaks", peak_buf),
-                            ("exponent", e_buf), ("out", out_buf), ("fixed_out", out_buf),
+                            ("ctl", ctl_buf), ("out", out_buf), ("fixed_out", out_buf),
                             ("fixed", np.int32(fixed)),
                             ("stream", np.int32(out.nbytes >= STREAM_BYTES))):
             k.set_arg(_ARGS[name], value)
-        events.append(cl.enqueue_nd_range_kernel(queue, k, (plan.n_bands,), (1,)))
-        e = np.zeros(1, np.int32)
-        cl.enqueue_copy(queue, e, e_buf, is_blocking=False)
+        events.append(cl.enqueue_nd_range_kernel(queue, k, (plan.workers,), (1,)))
+        e = np.zeros(2, np.int32)   # the exponent and the start-ups
+        cl.enqueue_copy(queue, e, ctl_buf, is_blocking=False)
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
                                           out.dtype, is_blocking=True)   # in order: after both
         mapped.base.release(queue)
         if e[0] == NONFINITE:
             raise non_finite_error(img)
         return out, {"peak_ms": event_ms(events[0]), "sweep_ms": event_ms(events[1]),
-                     "exponent": np.full(c, int(e[0])), "area": plan.area, "bands": plan.n_bands}
+                     "exponent": np.full(c, int(e[0])), "area": plan.area, "starts": int(e[1])}

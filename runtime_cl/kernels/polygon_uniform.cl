@@ -141,47 +141,62 @@ inline long16 advance(const int2 d, const int16 g, const int v, __global long *c
     return *(long16 *)ps;
 }
 
-// One work item per band of rows [bands[i], bands[i + 1]); see the file comment.
-// The band quantises the image rows its taps read into its own ring of QR rows of q (rows
-// y - QROW0 .. y + QLAST while it sweeps row y), each just before its first use: the ring stays in
-// the caches, where a slab of every row went to memory and back. Row y is ring row y mod QR.
-// scratch per band: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
-// row prefix of q (QL + NC), the taps' q offsets from the current row (n_taps).
+// Work sharing. The rows are cut into sub-bands of SUB rows, held in regions [next, end) of
+// sub-bands, one 32-bit word each in `slots` (next | end << 16): worker i (a work item) owns slot
+// i and claims its next sub-band from it. A worker with nothing left (on arrival too) takes a
+// region no worker owns whole, or else the bottom half of the region with the most sub-bands
+// unclaimed, if that half has at least `min_take` of them, into its own slot; the owner keeps
+// the top half. So a worker that the OS
+// wakes late (PoCL's threads on a busy or virtual machine often join a short kernel after the
+// others have done most of it) still takes half of what is left, and a worker sweeps each of
+// its regions top down with one start-up: consecutive sub-bands carry the state over.
+inline int claim(volatile __global uint *slot) {
+    uint w = atomic_or(slot, 0u);
+    for (;;) {
+        const uint n = w & 0xffffu, e = w >> 16;
+        if (n >= e) return -1;
+        const uint old = atomic_cmpxchg(slot, w, (n + 1) | (e << 16));
+        if (old == w) return (int)n;
+        w = old;
+    }
+}
+
+inline int take(volatile __global uint *slots, const int nslots, const int me,
+                const int min_take) {
+    const int owners = get_global_size(0);   // slots from here on belong to no worker
+    for (;;) {
+        int best = -1, most = 0;   // most: sub-bands the taker would get (+ 2^16: a whole one)
+        uint bw = 0;
+        for (int r = 0; r < nslots; ++r) {
+            const uint w = atomic_or(slots + r, 0u);
+            const int left = (int)(w >> 16) - (int)(w & 0xffffu);
+            const int gain = r >= owners ? (left ? 0x10000 + left : 0) : left / 2;
+            if (gain > most) { best = r; bw = w; most = gain; }
+        }
+        if (best < 0 || (best < owners && most < max(min_take, 1))) return -1;
+        const uint n = bw & 0xffffu, e = bw >> 16, mid = best >= owners ? n : e - (uint)most;
+        if (atomic_cmpxchg(slots + best, bw, n | (mid << 16)) == bw) {   // the owner: [n, mid)
+            atomic_xchg(slots + me, (mid + 1) | (e << 16));
+            return (int)mid;
+        }
+    }
+}
+
 #define QROW(y) (qr + (size_t)((((y) % QR) + QR) % QR) * QL)
-__kernel void uniform_bands(__global const float *image, const int W, const int H, const int LO,
-                            __global int *qall, const int QR, const int QL,
-                            const int QROW0, const int QLAST, const int QLANE0,
-                            const int nvec, const int vc0, const int vc1, const int out_lanes,
-                            __global const int *bands,
-                            __global const int2 *dirs,
-                            __global const int4 *tinfo, __global const int *tdx,
-                            __global const int *tdy, __global const int *tval, const int n_taps,
-                            __global const int *istart, __global const int4 *itaps,
-                            __global const int4 *runs, const int n_runs,
-                            __global long *scratch, const long scratch_stride,
-                            __global const uint *peaks, const int sbits, const double area,
-                            __global int *exponent, __global float *out,
-                            __global long *fixed_out, const int fixed, const int stream)
-{
-    const int band = get_global_id(0), y0 = bands[band], y1 = bands[band + 1];
-    const int e = fixed_point_exponent(peaks, H, sbits);
-    if (band == 0) *exponent = e;
-    if (e == NONFINITE) return;
-    const float scale = as_float((uint)(e + 127) << 23);            // 2^e
-    const double factor = as_double((ulong)(1023 - e) << 52) / area;  // 2^-e / area, one rounding
-    __global int *qr = qall + (size_t)band * QR * QL;
-    const int RL = nvec * 16, RLP = RL + 2 * PAD;
-    __global long *ring = scratch + band * scratch_stride;
-    __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
-    __global long *hq = acc + (vc1 - vc0) * 16;
-    __global int *toff = (__global int *)(hq + QL + NC);
-    if (y0 >= y1) return;
+
+// A worker's state at row y0 - 1, exact: q rows y0 - QROW0 .. y0 + QLAST, the ring rows
+// y0 - |b| .. y0 - 1 and the column sums of row y0 - 1.
+inline void start_region(const int y0, __global const float *image, const int W, const int H,
+                         const float scale, const int LO, __global int *qr, const int QR,
+                         const int QL, const int QROW0, const int QLAST, const int QLANE0,
+                         const int nvec, const int vc0, const int vc1, __global const int2 *dirs,
+                         __global const int *istart, __global const int4 *itaps,
+                         __global const int4 *runs, const int n_runs, __global long *ring,
+                         const int RLP, __global long *acc, __global long *hq) {
     for (size_t i = 0; i < (size_t)NDIR * RB * RLP; ++i) ring[i] = 0;
     for (int y = y0 - QROW0; y <= y0 + QLAST; ++y)   // every row the start and row y0 read
         quantise_row(image, W, H, scale, y, QROW(y), QL, LO);
-
-    // Ring state of rows y0 - |b| .. y0 - 1: the directional prefix of d's terms as taps
-    // (dy, lane offset, weight).
+    // Ring state: the directional prefix of d's terms as taps (dy, lane offset, weight).
     for (int k = 0; k < NDIR; ++k) {
         const int b = dirs[k].y, nb = b < 0 ? -b : b;
         const int va = b < 0 ? vc0 : 0, vb = b < 0 ? nvec : vc1;
@@ -214,71 +229,135 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
             STOREL(a, LOADL(a) + LOADL(hq + j - (run.y - 1) * NC) - LOADL(hq + j - run.z * NC));
         }
     }
+}
 
-    for (int y = y0; y < y1; ++y) {
-        if (y > y0) quantise_row(image, W, H, scale, y + QLAST, QROW(y + QLAST), QL, LO);
-        __global const int *qy = QROW(y) + QLANE0;
-        for (int t = 0; t < n_taps; ++t)   // the taps' ring rows, relative to row y's
-            toff[t] = (int)(QROW(y - tdy[t]) - QROW(y)) + tdx[t];
-        int2 d[NDIR];
-        int4 ti[NDIR];
-        __global long *cur[NDIR];
-        __global const long *prv[NDIR];
+// Row y of the sweep: G_d from the taps, each direction's ring row, the column sums, the output.
+inline void sweep_row(const int y, __global const int *qy, __global int *toff,
+                      const int nvec, const int vc0, const int vc1, const int out_lanes,
+                      __global const int2 *dirs, __global const int4 *tinfo,
+                      __global const int *tval, __global long *ring, const int RLP,
+                      __global long *acc, const double factor, __global float *out,
+                      __global long *fixed_out, const int fixed, const int stream) {
+    int2 d[NDIR];
+    int4 ti[NDIR];
+    __global long *cur[NDIR];
+    __global const long *prv[NDIR];
+    for (int k = 0; k < NDIR; ++k) {
+        d[k] = dirs[k];
+        ti[k] = tinfo[k];
+        cur[k] = ring + (size_t)(k * RB + slot(y)) * RLP + PAD;
+        prv[k] = ring + (size_t)(k * RB + slot(y - abs(d[k].y))) * RLP + PAD
+               + (d[k].y > 0 ? -d[k].x * NC : d[k].x * NC);
+    }
+    long run[NC];
+    for (int c = 0; c < NC; ++c) run[c] = 0;
+    int ch = 0;
+    // left of the image only lines with b >= 0 carry on into it; right of it, b < 0
+    for (int v = 0; v < vc0; ++v)
+        for (int k = 0; k < NDIR; ++k)
+            if (d[k].y >= 0)
+                advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
+                        run, &ch);
+    for (int v = vc1; v < nvec; ++v)
+        for (int k = 0; k < NDIR; ++k)
+            if (d[k].y < 0)
+                advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
+                        run, &ch);
+    for (int v0 = vc0; v0 < vc1; v0 += CH) {   // the host makes vc1 - vc0 a multiple of CH
+        long16 s[CH];
+        for (int c = 0; c < CH; ++c) s[c] = 0;
         for (int k = 0; k < NDIR; ++k) {
-            d[k] = dirs[k];
-            ti[k] = tinfo[k];
-            cur[k] = ring + (size_t)(k * RB + slot(y)) * RLP + PAD;
-            prv[k] = ring + (size_t)(k * RB + slot(y - abs(d[k].y))) * RLP + PAD
-                   + (d[k].y > 0 ? -d[k].x * NC : d[k].x * NC);
+            int16 g[CH];
+            gather_chunk(qy + 16 * v0, toff, tval, ti[k], g);
+            for (int c = 0; c < CH; ++c)
+                s[c] += advance(d[k], g[c], v0 + c, cur[k], prv[k], run, &ch);
         }
-        long run[NC];
-        for (int c = 0; c < NC; ++c) run[c] = 0;
-        int ch = 0;
-        // left of the image only lines with b >= 0 carry on into it; right of it, b < 0
-        for (int v = 0; v < vc0; ++v)
-            for (int k = 0; k < NDIR; ++k)
-                if (d[k].y >= 0)
-                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
-                            run, &ch);
-        for (int v = vc1; v < nvec; ++v)
-            for (int k = 0; k < NDIR; ++k)
-                if (d[k].y < 0)
-                    advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
-                            run, &ch);
-        for (int v0 = vc0; v0 < vc1; v0 += CH) {   // the host makes vc1 - vc0 a multiple of CH
-            long16 s[CH];
-            for (int c = 0; c < CH; ++c) s[c] = 0;
-            for (int k = 0; k < NDIR; ++k) {
-                int16 g[CH];
-                gather_chunk(qy + 16 * v0, toff, tval, ti[k], g);
-                for (int c = 0; c < CH; ++c)
-                    s[c] += advance(d[k], g[c], v0 + c, cur[k], prv[k], run, &ch);
-            }
-            for (int c = 0; c < CH; ++c) {
-                const int v = v0 + c;
-                const long16 a = LOADL(acc + 16 * (v - vc0)) + s[c];
-                STOREL(acc + 16 * (v - vc0), a);
-                const int l0 = 16 * (v - vc0);
-                const size_t o = (size_t)y * out_lanes + l0;
-                if (fixed) {
-                    long av[16];
-                    *(long16 *)av = a;
-                    for (int j = 0; j < 16 && l0 + j < out_lanes; ++j) fixed_out[o + j] = av[j];
+        for (int c = 0; c < CH; ++c) {
+            const int v = v0 + c;
+            const long16 a = LOADL(acc + 16 * (v - vc0)) + s[c];
+            STOREL(acc + 16 * (v - vc0), a);
+            const int l0 = 16 * (v - vc0);
+            const size_t o = (size_t)y * out_lanes + l0;
+            if (fixed) {
+                long av[16];
+                *(long16 *)av = a;
+                for (int j = 0; j < 16 && l0 + j < out_lanes; ++j) fixed_out[o + j] = av[j];
+            } else {
+                const float16 f = convert_float16(convert_double16(a) * factor);
+                if (l0 + 16 <= out_lanes) {
+                    __global float *dst = out + o;
+                    if (stream && ((size_t)dst & 63) == 0)   // a whole line, not read first
+                        __builtin_nontemporal_store(f, (__global float16 *)dst);
+                    else
+                        *(__global float16u *)dst = f;
                 } else {
-                    const float16 f = convert_float16(convert_double16(a) * factor);
-                    if (l0 + 16 <= out_lanes) {
-                        __global float *dst = out + o;
-                        if (stream && ((size_t)dst & 63) == 0)   // a whole line, not read first
-                            __builtin_nontemporal_store(f, (__global float16 *)dst);
-                        else
-                            *(__global float16u *)dst = f;
-                    } else {
-                        float fv[16];
-                        *(float16 *)fv = f;
-                        for (int j = 0; l0 + j < out_lanes; ++j) out[o + j] = fv[j];
-                    }
+                    float fv[16];
+                    *(float16 *)fv = f;
+                    for (int j = 0; l0 + j < out_lanes; ++j) out[o + j] = fv[j];
                 }
             }
         }
+    }
+}
+
+// One work item per worker; see the file comment and the work sharing above. ctl: [0] the
+// exponent (worker 0 writes it), [1] the count of start-ups, [2...] the nslots region slots.
+// A start-up quantises the image rows its taps read into the worker's ring of QR rows of q
+// (rows y - QROW0 .. y + QLAST while it sweeps row y), each just before its first use: the ring
+// stays in the caches. Row y is ring row y mod QR.
+// scratch per worker: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
+// row prefix of q (QL + NC), the taps' q offsets from the current row (n_taps).
+__kernel void uniform_bands(__global const float *image, const int W, const int H, const int LO,
+                            __global int *qall, const int QR, const int QL,
+                            const int QROW0, const int QLAST, const int QLANE0,
+                            const int nvec, const int vc0, const int vc1, const int out_lanes,
+                            __global int *ctl, const int nslots, const int SUB,
+                            const int min_take, __global const int2 *dirs,
+                            __global const int4 *tinfo, __global const int *tdx,
+                            __global const int *tdy, __global const int *tval, const int n_taps,
+                            __global const int *istart, __global const int4 *itaps,
+                            __global const int4 *runs, const int n_runs,
+                            __global long *scratch, const long scratch_stride,
+                            __global const uint *peaks, const int sbits, const double area,
+                            __global float *out, __global long *fixed_out, const int fixed,
+                            const int stream)
+{
+    const int me = get_global_id(0);
+    const int e = fixed_point_exponent(peaks, H, sbits);
+    if (me == 0) ctl[0] = e;
+    if (e == NONFINITE) return;
+    const float scale = as_float((uint)(e + 127) << 23);            // 2^e
+    const double factor = as_double((ulong)(1023 - e) << 52) / area;  // 2^-e / area, one rounding
+    __global int *qr = qall + (size_t)me * QR * QL;
+    const int RLP = nvec * 16 + 2 * PAD;
+    __global long *ring = scratch + me * scratch_stride;
+    __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
+    __global long *hq = acc + (vc1 - vc0) * 16;
+    __global int *toff = (__global int *)(hq + QL + NC);
+    volatile __global uint *slots = (volatile __global uint *)(ctl + 2);
+
+    int sb = claim(slots + me), ys = 0;   // ys: the row of the region's start-up
+    bool fresh = true;                    // sb starts a region (own sub-bands follow on)
+    for (;;) {
+        if (sb < 0) {
+            if ((sb = take(slots, nslots, me, min_take)) < 0) break;
+            fresh = true;
+        }
+        const int y0 = sb * SUB, y1 = min(H, y0 + SUB);
+        if (fresh) {
+            atomic_inc(ctl + 1);
+            start_region(y0, image, W, H, scale, LO, qr, QR, QL, QROW0, QLAST, QLANE0, nvec, vc0,
+                         vc1, dirs, istart, itaps, runs, n_runs, ring, RLP, acc, hq);
+            ys = y0;
+            fresh = false;
+        }
+        for (int y = y0; y < y1; ++y) {
+            if (y > ys) quantise_row(image, W, H, scale, y + QLAST, QROW(y + QLAST), QL, LO);
+            for (int t = 0; t < n_taps; ++t)   // the taps' ring rows, relative to row y's
+                toff[t] = (int)(QROW(y - tdy[t]) - QROW(y)) + tdx[t];
+            sweep_row(y, QROW(y) + QLANE0, toff, nvec, vc0, vc1, out_lanes, dirs, tinfo, tval,
+                      ring, RLP, acc, factor, out, fixed_out, fixed, stream);
+        }
+        sb = claim(slots + me);   // the next sub-band of this region, or none
     }
 }

@@ -40,9 +40,10 @@ def test_every_channel_count_is_brute_force_exact(name, channels):
 
 
 @pytest.mark.parametrize("name", ["hexagon", "heart12"])
-def test_bands_start_from_the_exact_state(name):
-    """Bands of one or two rows under a kernel ~25 rows tall: each starts from the computed
-    state of the row above it, so every split gives the same integers."""
+def test_regions_start_from_the_exact_state(name):
+    """Regions of one or a few rows under a kernel ~25 rows tall, most of them owned by no
+    worker and taken, whole or in halves: each start-up computes the state of the row above
+    it, so every split gives the same integers."""
     rng = np.random.default_rng(3)
     sp = splatter(name)
     img = scene(rng, 17, 40, 3)
@@ -50,14 +51,34 @@ def test_bands_start_from_the_exact_state(name):
                       uniform=True)
     uniform = sp._uniform
     try:
-        uniform.band_rows = 1
-        for per_unit in (0.5, 4, 8):
-            uniform.bands_per_unit = per_unit
-            out, info = sp.render(img, 12.0, fixed=True)
-            assert info["bands"] == max(1, int(per_unit * sp.device.device.max_compute_units))
-            np.testing.assert_array_equal(out, ref)
+        uniform.min_take = 0
+        for sub, regions in ((1, 1), (1, 5), (2, 17), (3, 4), (16, 1)):
+            uniform.sub_rows, uniform.regions = sub, regions
+            for _ in range(3):   # the split points depend on the workers' timing
+                out, info = sp.render(img, 12.0, fixed=True)
+                np.testing.assert_array_equal(out, ref)
+                assert info["starts"] >= min(regions, -(-17 // sub))   # one per region at least
     finally:
-        uniform.bands_per_unit, uniform.band_rows = 2, 512
+        uniform.sub_rows, uniform.regions, uniform.min_take = 16, 1, None
+
+
+def test_workers_share_one_region_exactly():
+    """One region of 40 sub-bands: with taking never worth a start-up one worker sweeps it all;
+    otherwise its partner, whenever it runs, takes the bottom half of what is left. Both give
+    the same integers."""
+    sp = PolygonSplatter(*shape("hexagon"))
+    img = scene(np.random.default_rng(8), 160, 64, 3)
+    uniform = sp._uniform
+    uniform.sub_rows, uniform.min_take = 4, 10 ** 6
+    alone, info = sp.render(img, 10.0, fixed=True)
+    assert info["starts"] == 1
+    np.testing.assert_array_equal(alone, splat_fixed(img, 10.0, sp.polygon, info["exponent"][0],
+                                                     uniform=True))
+    uniform.min_take = 0
+    for _ in range(5):
+        shared, info = sp.render(img, 10.0, fixed=True)
+        np.testing.assert_array_equal(shared, alone)
+        assert info["starts"] <= sp.device.device.max_compute_units
 
 
 @pytest.mark.parametrize("ch", [1, 2, 4])

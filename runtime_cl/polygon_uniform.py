@@ -36,7 +36,7 @@ from .errors import InputError
 from .polygon_kernel import rasterize_polygon
 from .polygon_terms import PolygonTerms
 
-__all__ = ["UniformBlur", "exponent_bits", "directional_prefix_taps", "pixel_runs",
+__all__ = ["UniformBlur", "exponent_bits", "directional_prefix_taps", "column_events",
            "non_finite_error"]
 
 V = 16   # lanes per vector in the kernel
@@ -106,15 +106,16 @@ def directional_prefix_taps(dx, dy, value, direction) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros((0, 3), np.int64)
 
 
-def pixel_runs(polygon) -> np.ndarray:
-    """Rows of horizontal pixel runs ``(dy, dx0, dx1)`` (inclusive) of the rasterised polygon,
-    grouped by ``dy``."""
+def column_events(polygon) -> np.ndarray:
+    """The rasterised polygon's columns as events ``(dy, dx, s)`` on sums of its rows taken
+    downwards, sorted by ``dy``: each vertical run ``[dy0, dy1]`` of column ``dx`` is ``+1`` at
+    ``dy1`` and ``-1`` at ``dy0 - 1``, so the kernel at ``(dx, dy)`` is the sum of ``s`` over
+    its column's events at ``dy`` or below."""
     k, x0, y0 = rasterize_polygon(polygon)
-    edges = np.diff(np.pad(k, ((0, 0), (1, 1))), axis=1)
-    ys, xs = np.nonzero(edges)
-    starts = edges[ys, xs] > 0
-    # per row the run boundaries alternate start, end (the end is one past the run)
-    return np.stack([ys[starts] + y0, xs[starts] + x0, xs[~starts] - 1 + x0], 1).astype(np.int64)
+    edges = np.diff(np.pad(k, ((1, 1), (0, 0))), axis=0)   # row i: k[i] - k[i - 1]
+    ys, xs = np.nonzero(edges)   # +1: a run starts at row i (event at i - 1); -1: one ended at i - 1
+    ev = np.stack([ys - 1 + y0, xs + x0, -edges[ys, xs]], 1)
+    return ev[np.lexsort((ev[:, 1], ev[:, 0]))].astype(np.int64)
 
 
 @dataclass(frozen=True)
@@ -123,13 +124,13 @@ class _Kernel:
 
     terms: PolygonTerms
     init: list            # per direction: (dx, dy, c) of the ring state taps
-    runs: np.ndarray      # (dy, dx0, dx1)
+    events: np.ndarray    # (dy, dx, s): the column sums' start (column_events)
 
 
 # uniform_bands' arguments, in the kernel's order
 _ARGS = {n: i for i, n in enumerate(
     "image W H LO q QR QL QROW0 QLAST QLANE0 nvec vc0 vc1 out_lanes ctl nslots SUB min_take dirs "
-    "tinfo tdx tdy tval n_taps istart itaps runs n_runs scratch scratch_stride peaks sbits area "
+    "tinfo tdx tdy tval n_taps istart itaps events n_events scratch scratch_stride peaks sbits area "
     "out fixed_out fixed stream".split())}
 NONFINITE = 0x7FFFFFFF   # the exponent the kernel reports for an image with NaN or inf
 PLANS = 8                # (kernel, image shape) set-ups kept
@@ -211,7 +212,7 @@ class UniformBlur:
                 if b < 0:   # U(p) = -P(p - d): shift by d, negate
                     p = np.stack([p[:, 0] + a, p[:, 1] + b, -p[:, 2]], 1)
                 init.append(p if b != 0 else p[:0])
-            self._entries[e] = _Kernel(t, init, pixel_runs(self.sp.table.scale.polygon(radius)))
+            self._entries[e] = _Kernel(t, init, column_events(self.sp.table.scale.polygon(radius)))
         return self._entries[e]
 
     def _plan(self, radius: float, shape) -> _Plan:
@@ -245,13 +246,14 @@ class UniformBlur:
         nvec = max(vc1, -(-(right - x0) * c // V))
 
         # q rows cover every tap of the sweep (rows 0..h-1), the ring start (rows >= -max|b|)
-        # and the column-sum start (row >= -1 with the runs' dy).
+        # and the column-sum start (rows y0 - 1 - dy of the kernel's rows dy).
         init = [p for p in kern.init if len(p)]
-        ox = np.concatenate([t.dx, *(p[:, 0] for p in init), kern.runs[:, 1], kern.runs[:, 2],
-                             [0]])
-        oy = np.concatenate([t.dy, *(p[:, 1] for p in init), kern.runs[:, 0], [0]])
+        ev = kern.events
+        ox = np.concatenate([t.dx, *(p[:, 0] for p in init), ev[:, 1], [0]])
+        oy = np.concatenate([t.dy, *(p[:, 1] for p in init), ev[:, 0], [0]])
         qlane0 = int(ox.max()) * c
-        ql = c * -(-(qlane0 + V * nvec - int(ox.min()) * c) // c)   # whole pixels per row
+        step = math.lcm(V, c)   # whole pixels and whole vectors per row
+        ql = step * -(-(qlane0 + V * nvec - int(ox.min()) * c) // step)
         qrow0, qlast = rb + int(oy.max()), -int(oy.min())   # rows above and below a band
 
         # sweep taps grouped by direction, then weight +1, -1, other (branch-free inner loops)
@@ -267,8 +269,8 @@ class UniformBlur:
         if istart[-1]:
             dx, dy, v = np.concatenate(kern.init).T
             itaps[:, 0], itaps[:, 1], itaps[:, 2] = dy, -dx * c, v
-        runs = np.zeros((len(kern.runs), 4), np.int32)
-        runs[:, :3] = kern.runs
+        events = np.zeros((len(ev), 4), np.int32)
+        events[:, :3] = ev
 
         workers = int(sp.device.device.max_compute_units)
         sub = max(int(self.sub_rows), -(-h // 0xFFFF))   # sub-band numbers fit 16 bits
@@ -282,7 +284,7 @@ class UniformBlur:
         qr = qrow0 + qlast + 1
         stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c + t.nnz
         taps = [np.asarray(a, np.int32) for a in (-t.dx[order] * c, t.dy[order], t.value[order])]
-        tables = [sp._upload(a) for a in (tinfo, *taps, istart, itaps, runs)]
+        tables = [sp._upload(a) for a in (tinfo, *taps, istart, itaps, events)]
         kernel = sp._cl.Kernel(prg, "uniform_bands")
         i32 = np.int32
         for name, value in dict(
@@ -291,7 +293,7 @@ class UniformBlur:
                 vc0=i32(vc0), vc1=i32(vc1), out_lanes=i32(w * c), nslots=i32(len(ctl) - 2),
                 SUB=i32(sub), min_take=i32(-(-take_rows // sub)), dirs=sp._dirs,
                 tinfo=tables[0], tdx=tables[1], tdy=tables[2], tval=tables[3], n_taps=i32(t.nnz),
-                istart=tables[4], itaps=tables[5], runs=tables[6], n_runs=i32(len(runs)),
+                istart=tables[4], itaps=tables[5], events=tables[6], n_events=i32(len(ev)),
                 scratch_stride=np.int64(stride), sbits=i32(exponent_bits(t)),
                 area=np.float64(t.area)).items():
             kernel.set_arg(_ARGS[name], value)

@@ -50,6 +50,16 @@ __kernel void row_peak(__global const float *image, const int n, __global uint *
     peak[y] = s;
 }
 
+// rint of 16 floats, as integers: x +- 2^23 - (+-2^23) rounds to the nearest, ties to even,
+// below 2^23, where floats are integers already (a few vector ops; PoCL expands
+// convert_int16_rte to some twenty).
+inline int16 rint16(const float16 x) {
+    const uint16 bits = as_uint16(x);
+    const float16 m = as_float16((bits & 0x80000000u) | 0x4b000000u);   // copysign(2^23, x)
+    const int16 small = as_int16(bits & 0x7fffffffu) < 0x4b000000;    // |x| < 2^23
+    return convert_int16(as_float16((as_int16((x + m) - m) & small) | (as_int16(x) & ~small)));
+}
+
 // q row of image row y: rint(colour * scale) (an exact float scaling), zeros outside the image;
 // lane l of the row is image lane l - LO of that row (LO zero lanes left of the image).
 inline void quantise_row(__global const float *image, const int W, const int H, const float scale,
@@ -60,7 +70,7 @@ inline void quantise_row(__global const float *image, const int W, const int H, 
     for (; l < (inside ? LO : QL); ++l) row[l] = 0;
     for (; l + 16 <= hi; l += 16)
         *(__global int16u *)(row + l) =
-            convert_int16_rte(*(__global const float16u *)(src + l) * scale);
+            rint16(*(__global const float16u *)(src + l) * scale);
     for (; l < hi; ++l) row[l] = convert_int_rte(src[l] * scale);
     for (; l < QL; ++l) row[l] = 0;
 }
@@ -191,8 +201,8 @@ inline void start_region(const int y0, __global const float *image, const int W,
                          const int QL, const int QROW0, const int QLAST, const int QLANE0,
                          const int nvec, const int vc0, const int vc1, __global const int2 *dirs,
                          __global const int *istart, __global const int4 *itaps,
-                         __global const int4 *runs, const int n_runs, __global long *ring,
-                         const int RLP, __global long *acc, __global long *hq) {
+                         __global const int4 *events, const int n_events, __global long *ring,
+                         const int RLP, __global long *acc, __global long *csum) {
     for (size_t i = 0; i < (size_t)NDIR * RB * RLP; ++i) ring[i] = 0;
     for (int y = y0 - QROW0; y <= y0 + QLAST; ++y)   // every row the start and row y0 read
         quantise_row(image, W, H, scale, y, QROW(y), QL, LO);
@@ -211,22 +221,22 @@ inline void start_region(const int y0, __global const float *image, const int W,
             }
         }
     }
-    // Column sums of row y0 - 1: per kernel row ky, its runs [dx0, dx1] of pixels as differences
-    // of the exclusive row prefix hq of q row y0 - 1 - ky (runs come grouped by ky).
+    // Column sums of row y0 - 1: the kernel's column runs as events (dy, dx, s) on C, the sums
+    // of q rows y0 - 1 - k over the kernel's rows k so far (kept in csum): each run [dy0, dy1] of
+    // column dx adds C(dy1) - C(dy0 - 1) at dx. Every vector op, no carry along the rows.
     for (int v = vc0; v < vc1; ++v) STOREL(acc + 16 * (v - vc0), (long16)0);
-    for (int r = 0; r < n_runs; ++r) {
-        const int4 run = runs[r];
-        if (r == 0 || runs[r - 1].x != run.x) {
-            __global const int *qrow = QROW(y0 - 1 - run.x);
-            long sum[NC];
-            for (int c = 0; c < NC; ++c) hq[c] = sum[c] = 0;
-            for (int j = 0; j < QL; j += NC)
-                for (int c = 0; c < NC; ++c) hq[j + NC + c] = sum[c] += qrow[j + c];
-        }
-        for (int v = vc0; v < vc1; ++v) {
-            const int j = QLANE0 + 16 * v;
-            __global long *a = acc + 16 * (v - vc0);
-            STOREL(a, LOADL(a) + LOADL(hq + j - (run.y - 1) * NC) - LOADL(hq + j - run.z * NC));
+    for (int l = 0; l < QL; l += 16) STOREL(csum + l, (long16)0);
+    for (int k = events[0].x, i = 0; i < n_events; ++k) {
+        __global const int *qrow = QROW(y0 - 1 - k);
+        for (int l = 0; l < QL; l += 16) STOREL(csum + l, LOADL(csum + l) + convert_long16(LOADI(qrow + l)));
+        for (; i < n_events && events[i].x == k; ++i) {
+            __global const long *cs = csum + QLANE0 - events[i].y * NC;
+            if (events[i].z > 0)
+                for (int v = vc0; v < vc1; ++v)
+                    STOREL(acc + 16 * (v - vc0), LOADL(acc + 16 * (v - vc0)) + LOADL(cs + 16 * v));
+            else
+                for (int v = vc0; v < vc1; ++v)
+                    STOREL(acc + 16 * (v - vc0), LOADL(acc + 16 * (v - vc0)) - LOADL(cs + 16 * v));
         }
     }
 }
@@ -306,7 +316,7 @@ inline void sweep_row(const int y, __global const int *qy, __global int *toff,
 // (rows y - QROW0 .. y + QLAST while it sweeps row y), each just before its first use: the ring
 // stays in the caches. Row y is ring row y mod QR.
 // scratch per worker: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
-// row prefix of q (QL + NC), the taps' q offsets from the current row (n_taps).
+// row of column sums of q (QL + NC), the taps' q offsets from the current row (n_taps).
 __kernel void uniform_bands(__global const float *image, const int W, const int H, const int LO,
                             __global int *qall, const int QR, const int QL,
                             const int QROW0, const int QLAST, const int QLANE0,
@@ -316,7 +326,7 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
                             __global const int4 *tinfo, __global const int *tdx,
                             __global const int *tdy, __global const int *tval, const int n_taps,
                             __global const int *istart, __global const int4 *itaps,
-                            __global const int4 *runs, const int n_runs,
+                            __global const int4 *events, const int n_events,
                             __global long *scratch, const long scratch_stride,
                             __global const uint *peaks, const int sbits, const double area,
                             __global float *out, __global long *fixed_out, const int fixed,
@@ -332,8 +342,8 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
     const int RLP = nvec * 16 + 2 * PAD;
     __global long *ring = scratch + me * scratch_stride;
     __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
-    __global long *hq = acc + (vc1 - vc0) * 16;
-    __global int *toff = (__global int *)(hq + QL + NC);
+    __global long *csum = acc + (vc1 - vc0) * 16;
+    __global int *toff = (__global int *)(csum + QL + NC);
     volatile __global uint *slots = (volatile __global uint *)(ctl + 2);
 
     int sb = claim(slots + me), ys = 0;   // ys: the row of the region's start-up
@@ -347,7 +357,7 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
         if (fresh) {
             atomic_inc(ctl + 1);
             start_region(y0, image, W, H, scale, LO, qr, QR, QL, QROW0, QLAST, QLANE0, nvec, vc0,
-                         vc1, dirs, istart, itaps, runs, n_runs, ring, RLP, acc, hq);
+                         vc1, dirs, istart, itaps, events, n_events, ring, RLP, acc, csum);
             ys = y0;
             fresh = false;
         }

@@ -130,10 +130,11 @@ class _Kernel:
 # uniform_bands' arguments, in the kernel's order
 _ARGS = {n: i for i, n in enumerate(
     "image W H LO q QR QL QROW0 QLAST QLANE0 nvec vc0 vc1 out_lanes ctl nslots SUB min_take dirs "
-    "tinfo tdx tdy tval n_taps istart itaps events n_events scratch scratch_stride peaks sbits area "
+    "tinfo tdx tdy tval n_taps istart itaps events n_events scratch scratch_stride sbits area "
     "out fixed_out fixed stream".split())}
 NONFINITE = 0x7FFFFFFF   # the exponent the kernel reports for an image with NaN or inf
 PLANS = 8                # (kernel, image shape) set-ups kept
+CTL = 5                  # control words before the region slots (see uniform_bands)
 
 
 @dataclass(frozen=True)
@@ -191,7 +192,7 @@ class UniformBlur:
             prg, _ = sp.device.program("polygon_uniform.cl", [f"-DNC={channels}",
                                        f"-DNDIR={len(sp.directions)}", f"-DRB={rb}", f"-DPAD={pad}",
                                        f"-DCH={self.ch}"])
-            self._programs[key] = (prg, sp._cl.Kernel(prg, "row_peak"), rb, pad)
+            self._programs[key] = (prg, rb, pad)
         return self._programs[key]
 
     def _buffer(self, name: str, nbytes: int, what: str):
@@ -229,7 +230,7 @@ class UniformBlur:
         kern = self._entry(e, radius)
         t = kern.terms
         h, w, c = shape
-        prg, _, rb, pad = self._program(c)
+        prg, rb, pad = self._program(c)
         dirs = sp.directions
 
         # Region columns [x0, x1): every column where some direction's differences are non-zero
@@ -276,8 +277,8 @@ class UniformBlur:
         sub = max(int(self.sub_rows), -(-h // 0xFFFF))   # sub-band numbers fit 16 bits
         n_sub = -(-h // sub)
         edges = np.linspace(0, n_sub, min(self.regions, n_sub) + 1).round().astype(np.uint32)
-        ctl = np.zeros(2 + max(workers, len(edges) - 1), np.uint32)   # slots: next | end << 16
-        ctl[2:len(edges) + 1] = edges[:-1] | edges[1:] << 16
+        ctl = np.zeros(CTL + max(workers, len(edges) - 1), np.uint32)   # slots: next | end << 16
+        ctl[CTL:CTL + len(edges) - 1] = edges[:-1] | edges[1:] << 16
         # a start-up costs about as much as sweeping half the rows it re-reads (0.2 ms, ~70
         # rows, for r = 60 at 1024 wide on a Zen 5): taking fewer rows than that loses time
         take_rows = -(-(qrow0 + qlast + 1) // 2) if self.min_take is None else self.min_take
@@ -290,7 +291,7 @@ class UniformBlur:
         for name, value in dict(
                 W=i32(w), H=i32(h), LO=i32((int(ox.max()) - x0) * c), QR=i32(qr), QL=i32(ql),
                 QROW0=i32(qrow0), QLAST=i32(qlast), QLANE0=i32(qlane0), nvec=i32(nvec),
-                vc0=i32(vc0), vc1=i32(vc1), out_lanes=i32(w * c), nslots=i32(len(ctl) - 2),
+                vc0=i32(vc0), vc1=i32(vc1), out_lanes=i32(w * c), nslots=i32(len(ctl) - CTL),
                 SUB=i32(sub), min_take=i32(-(-take_rows // sub)), dirs=sp._dirs,
                 tinfo=tables[0], tdx=tables[1], tdy=tables[2], tval=tables[3], n_taps=i32(t.nnz),
                 istart=tables[4], itaps=tables[5], events=tables[6], n_events=i32(len(ev)),
@@ -320,13 +321,8 @@ class UniformBlur:
         h, w, c = img.shape
         sp.table.ensure(float(radius))
         plan = self._plan(radius, img.shape)
-        row_peak = self._program(c)[1]
         img_buf = cl.Buffer(sp.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=img)
-        # largest |colour| per row as float bits (NaN and inf above every finite value); the
-        # bands kernel takes the exponent from them
-        peak_buf = self._buffer("peaks", h * 4, "row peaks")
-        events = [row_peak(queue, (h,), (1,), img_buf, np.int32(w * c), peak_buf)]
         out = _aligned_empty((h, w, c), np.int64 if fixed else np.float32)
         out_buf = cl.Buffer(sp.device.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=out)
@@ -334,12 +330,12 @@ class UniformBlur:
         k = plan.kernel
         for name, value in (("image", img_buf), ("q", self._buffer("q", plan.q_bytes,
                             "fixed-point rows")), ("scratch", self._buffer(
-                            "scratch", plan.scratch_bytes, "band scratch")), ("peaks", peak_buf),
+                            "scratch", plan.scratch_bytes, "band scratch")),
                             ("ctl", ctl_buf), ("out", out_buf), ("fixed_out", out_buf),
                             ("fixed", np.int32(fixed)),
                             ("stream", np.int32(out.nbytes >= STREAM_BYTES))):
             k.set_arg(_ARGS[name], value)
-        events.append(cl.enqueue_nd_range_kernel(queue, k, (plan.workers,), (1,)))
+        event = cl.enqueue_nd_range_kernel(queue, k, (plan.workers,), (1,))
         e = np.zeros(2, np.int32)   # the exponent and the start-ups
         cl.enqueue_copy(queue, e, ctl_buf, is_blocking=False)
         mapped, _ = cl.enqueue_map_buffer(queue, out_buf, cl.map_flags.READ, 0, out.shape,
@@ -347,5 +343,5 @@ class UniformBlur:
         mapped.base.release(queue)
         if e[0] == NONFINITE:
             raise non_finite_error(img)
-        return out, {"peak_ms": event_ms(events[0]), "sweep_ms": event_ms(events[1]),
+        return out, {"sweep_ms": event_ms(event),
                      "exponent": np.full(c, int(e[0])), "area": plan.area, "starts": int(e[1])}

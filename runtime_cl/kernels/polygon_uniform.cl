@@ -35,19 +35,17 @@ typedef uint uint16u __attribute__((ext_vector_type(16), aligned(4)));
 #define LOADL(p) (*(__global const long16u *)(p))
 #define STOREL(p, v) (*(__global long16u *)(p) = (v))
 
-// Largest |colour| of each row, as float bits: compared as integers, NaN and inf rank above
-// every finite value, so one maximum also tells whether the row is finite. One row per item.
-__kernel void row_peak(__global const float *image, const int n, __global uint *peak)
-{
-    const int y = get_global_id(0);
-    __global const uint *row = (__global const uint *)image + (size_t)y * n;
+// Largest |colour| of the n floats of a row as float bits: compared as integers, NaN and inf
+// rank above every finite value, so one maximum also tells whether the image is finite.
+inline uint row_peak(__global const float *image, const int n) {
+    __global const uint *row = (__global const uint *)image;
     uint16 m = 0;
     int l = 0;
     for (; l + 16 <= n; l += 16) m = max(m, *(__global const uint16u *)(row + l) & 0x7fffffffu);
     uint s = max(max(max(m.s0, m.s1), max(m.s2, m.s3)), max(max(m.s4, m.s5), max(m.s6, m.s7)));
     s = max(s, max(max(max(m.s8, m.s9), max(m.sa, m.sb)), max(max(m.sc, m.sd), max(m.se, m.sf))));
     for (; l < n; ++l) s = max(s, row[l] & 0x7fffffffu);
-    peak[y] = s;
+    return s;
 }
 
 // rint of 16 floats, as integers: x +- 2^23 - (+-2^23) rounds to the nearest, ties to even,
@@ -77,12 +75,10 @@ inline void quantise_row(__global const float *image, const int W, const int H, 
 
 #define NONFINITE 0x7fffffff
 
-// Fixed-point exponent e from the rows' peaks (float bits; runtime_cl.polygon_uniform
+// Fixed-point exponent e from the image's peak m (float bits; runtime_cl.polygon_uniform
 // .exponent_bits): the largest with 2^e peak < 2^(30 - sbits), capped at 126, 0 for a black
 // image; NONFINITE if a colour is NaN or inf.
-inline int fixed_point_exponent(__global const uint *peak, const int n, const int sbits) {
-    uint m = 0;
-    for (int i = 0; i < n; ++i) m = max(m, peak[i]);
+inline int fixed_point_exponent(const uint m, const int sbits) {
     if (m >= 0x7f800000u) return NONFINITE;
     if (m == 0) return 0;
     const int eb = m >> 23;   // peak < 2^E (frexp's exponent), also for subnormal peaks
@@ -311,7 +307,8 @@ inline void sweep_row(const int y, __global const int *qy, __global int *toff,
 }
 
 // One work item per worker; see the file comment and the work sharing above. ctl: [0] the
-// exponent (worker 0 writes it), [1] the count of start-ups, [2...] the nslots region slots.
+// exponent (worker 0 writes it), [1] the count of start-ups, [2, 3] peak sub-bands claimed and
+// done, [4] the peak, [5...] the nslots region slots.
 // A start-up quantises the image rows its taps read into the worker's ring of QR rows of q
 // (rows y - QROW0 .. y + QLAST while it sweeps row y), each just before its first use: the ring
 // stays in the caches. Row y is ring row y mod QR.
@@ -328,12 +325,22 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
                             __global const int *istart, __global const int4 *itaps,
                             __global const int4 *events, const int n_events,
                             __global long *scratch, const long scratch_stride,
-                            __global const uint *peaks, const int sbits, const double area,
+                            const int sbits, const double area,
                             __global float *out, __global long *fixed_out, const int fixed,
                             const int stream)
 {
-    const int me = get_global_id(0);
-    const int e = fixed_point_exponent(peaks, H, sbits);
+    const int me = get_global_id(0), n_sub = (H + SUB - 1) / SUB;
+    // The exponent needs the image's largest |colour|: the workers share that scan by sub-bands
+    // too, then wait for the ones others have claimed (running workers: no deadlock).
+    for (int c; (c = atomic_inc(ctl + 2)) < n_sub;) {
+        uint m = 0;
+        for (int y = c * SUB; y < min(H, c * SUB + SUB); ++y)
+            m = max(m, row_peak(image + (size_t)y * W * NC, W * NC));
+        atomic_max((volatile __global uint *)(ctl + 4), m);
+        atomic_inc(ctl + 3);
+    }
+    while (atomic_or(ctl + 3, 0) < n_sub) {}
+    const int e = fixed_point_exponent(atomic_or((volatile __global uint *)(ctl + 4), 0u), sbits);
     if (me == 0) ctl[0] = e;
     if (e == NONFINITE) return;
     const float scale = as_float((uint)(e + 127) << 23);            // 2^e
@@ -344,7 +351,7 @@ __kernel void uniform_bands(__global const float *image, const int W, const int 
     __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
     __global long *csum = acc + (vc1 - vc0) * 16;
     __global int *toff = (__global int *)(csum + QL + NC);
-    volatile __global uint *slots = (volatile __global uint *)(ctl + 2);
+    volatile __global uint *slots = (volatile __global uint *)(ctl + 5);
 
     int sb = claim(slots + me), ys = 0;   // ys: the row of the region's start-up
     bool fresh = true;                    // sb starts a region (own sub-bands follow on)

@@ -1,16 +1,16 @@
-// Uniform-radius polygonal blur in one pass per band of rows (runtime_cl/polygon_uniform.py).
+// Uniform-radius polygonal blur in one launch (runtime_cl/polygon_uniform.py).
 //
 // Every pixel shares one kernel, so MHU21's directional differences (eq. 9) are a few fixed taps
-// on the fixed-point image q: G_d(p) = sum_t v_t q(p - o_t), no splatting. One work item owns a
-// band of rows, walks it top down and keeps, per edge direction d = (a, b), the directional
+// on the fixed-point image q: G_d(p) = sum_t v_t q(p - o_t), no splatting. A worker sweeps a
+// region of rows top down and keeps, per edge direction d = (a, b), the directional
 // prefix sums (eq. 10) of the last |b| rows in a ring, and the vertical sum (eq. 11) per column:
 //   b > 0: P(x, y) = P(x - a, y - b) + G(x, y)                 (the row b above)
 //   b < 0: U(x, y) = U(x + a, y + b) + G(x, y),  P = G - U      (the suffix along +d, from the
 //          row |b| above: every line's terms sum to zero, so the prefix is minus the rest)
 //   b = 0: P(x, y) = P(x - 1, y) + G(x, y)                     (along the row, serially)
-// Out(x, y) = Out(x, y - 1) + sum_d P_d(x, y). A band starts from the exact state of the row
+// Out(x, y) = Out(x, y - 1) + sum_d P_d(x, y). A region starts from the exact state of the row
 // above it: P (or U) from the taps of the directional prefix of d's terms (`itaps`), and the
-// vertical sum from the kernel's pixel runs on row prefix sums of q (`runs`).
+// vertical sum from the kernel's column runs on column sums of q (`events`).
 //
 // Lanes: region lane L is column X0 + L / NC, channel L % NC (the image's interleaving), so all
 // channels go through one pass; 16 lanes per vector. Region columns [X0, X1) cover every column
@@ -314,7 +314,7 @@ inline void sweep_row(const int y, __global const int *qy, __global int *toff,
 // stays in the caches. Row y is ring row y mod QR.
 // scratch per worker: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
 // row of column sums of q (QL + NC), the taps' q offsets from the current row (n_taps).
-__kernel void uniform_bands(__global const float *image, const int W, const int H, const int LO,
+__kernel void uniform_sweep(__global const float *image, const int W, const int H, const int LO,
                             __global int *qall, const int QR, const int QL,
                             const int QROW0, const int QLAST, const int QLANE0,
                             const int nvec, const int vc0, const int vc1, const int out_lanes,

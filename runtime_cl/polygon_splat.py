@@ -32,7 +32,7 @@ and no result depends on the order of additions (runs are bit-identical). Radius
 by at most ``n 2^-(e+1) <= n N mean|colour| 2^-62`` for ``N`` pixels (4e-8 of the mean colour
 for 1920x1080 and n = 1e5) before its rounding to float32. Uniform radius: the exact sum of
 ``q = rint(colour 2^e)`` over the kernel, divided by its area at the end (see
-:func:`~runtime_cl.polygon_uniform.uniform_exponent`). Radius 0 returns the image.
+:func:`~runtime_cl.polygon_uniform.exponent_bits`). Radius 0 returns the image.
 
 Borders. The buffers cover exactly the image, whatever the radius: a term outside is moved
 along its direction to where its line enters the image, or into a per-column sum of the rows

@@ -237,13 +237,15 @@ inline void start_region(const int y0, __global const float *image, const int W,
     }
 }
 
-// Row y of the sweep: G_d from the taps, each direction's ring row, the column sums, the output.
+// Row y of the sweep: G_d from the taps, each direction's ring row, the column sums, the output;
+// the image row `next` (or none) is prefetched.
 inline void sweep_row(const int y, __global const int *qy, __global int *toff,
                       const int nvec, const int vc0, const int vc1, const int out_lanes,
                       __global const int2 *dirs, __global const int4 *tinfo,
                       __global const int *tval, __global long *ring, const int RLP,
                       __global long *acc, const double factor, __global float *out,
-                      __global long *fixed_out, const int fixed, const int stream) {
+                      __global long *fixed_out, const int fixed, const int stream,
+                      __global const float *next) {
     int2 d[NDIR];
     int4 ti[NDIR];
     __global long *cur[NDIR];
@@ -270,6 +272,9 @@ inline void sweep_row(const int y, __global const int *qy, __global int *toff,
                 advance(d[k], gather(qy + 16 * v, toff, tval, ti[k]), v, cur[k], prv[k],
                         run, &ch);
     for (int v0 = vc0; v0 < vc1; v0 += CH) {   // the host makes vc1 - vc0 a multiple of CH
+        if (next)   // the image row the next row quantises, as far along as this one: its
+                    // loads stalled the quantising (7-12 % off at 1024^2-2048^2 after an FFT)
+            for (int c = 0; c < CH; ++c) __builtin_prefetch(next + 16 * (v0 - vc0 + c));
         long16 s[CH];
         for (int c = 0; c < CH; ++c) s[c] = 0;
         for (int k = 0; k < NDIR; ++k) {
@@ -372,8 +377,10 @@ __kernel void uniform_sweep(__global const float *image, const int W, const int 
             if (y > ys) quantise_row(image, W, H, scale, y + QLAST, QROW(y + QLAST), QL, LO);
             for (int t = 0; t < n_taps; ++t)   // the taps' ring rows, relative to row y's
                 toff[t] = (int)(QROW(y - tdy[t]) - QROW(y)) + tdx[t];
+            const int yn = y + QLAST + 1;
             sweep_row(y, QROW(y) + QLANE0, toff, nvec, vc0, vc1, out_lanes, dirs, tinfo, tval,
-                      ring, RLP, acc, factor, out, fixed_out, fixed, stream);
+                      ring, RLP, acc, factor, out, fixed_out, fixed, stream,
+                      yn < H ? image + (size_t)yn * W * NC : 0);
         }
         sb = claim(slots + me);   // the next sub-band of this region, or none
     }

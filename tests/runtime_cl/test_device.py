@@ -1,4 +1,8 @@
-"""OpenCL device set-up: platform choice, program cache, messages when OpenCL is missing."""
+"""OpenCL device set-up: platform choice, program cache, messages when OpenCL is missing,
+PoCL's pinned threads."""
+import os
+from pathlib import Path
+
 import pyopencl as cl
 import pytest
 
@@ -52,3 +56,32 @@ def test_no_opencl_platform_says_what_to_install(monkeypatch):
     monkeypatch.setattr(device_mod, "_DEVICES", {})
     with pytest.raises(InputError, match="pip install pocl-binary-distribution"):
         get_device()
+
+
+def test_pocl_threads_are_pinned_when_the_cpus_allow():
+    """get_device asked PoCL to pin its workers (this process may use CPUs 0..n-1): each of its
+    threads is allowed one CPU, a different one each."""
+    dev = get_device()
+    if os.sched_getaffinity(0) != set(range(len(os.sched_getaffinity(0)))):
+        pytest.skip("this process may not run on CPUs 0..n-1: nothing is pinned")
+    assert os.environ.get(device_mod.PIN_ENV) == "1"
+    pinned = set()
+    for status in Path("/proc/self/task").glob("*/status"):
+        cpus = [l.split(":")[1].strip() for l in status.read_text().splitlines()
+                if l.startswith("Cpus_allowed_list")][0]
+        if cpus.isdigit():
+            pinned.add(int(cpus))
+    assert pinned == set(range(int(dev.device.max_compute_units)))
+
+
+def test_pinning_respects_the_user_and_the_cpu_set(monkeypatch):
+    monkeypatch.setenv(device_mod.PIN_ENV, "0")
+    assert not device_mod.pin_pocl_threads() and os.environ[device_mod.PIN_ENV] == "0"
+    monkeypatch.delenv(device_mod.PIN_ENV)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {2, 3})   # a cpuset off CPU 0
+    assert not device_mod.pin_pocl_threads() and device_mod.PIN_ENV not in os.environ
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setenv("POCL_MAX_PTHREAD_COUNT", "8")                     # more threads than CPUs
+    assert not device_mod.pin_pocl_threads()
+    monkeypatch.delenv("POCL_MAX_PTHREAD_COUNT")
+    assert device_mod.pin_pocl_threads() and os.environ[device_mod.PIN_ENV] == "1"

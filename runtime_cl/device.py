@@ -2,8 +2,9 @@
 
 The device is picked once per process (:func:`get_device`): the platform whose name contains
 ``$SPLATLAB_CL_PLATFORM`` (case-insensitive) if that is set, else the PoCL CPU device, else the
-first device found; PoCL's worker threads are pinned to the CPUs first (:func:`pin_pocl_threads`). Programs are built once per process per (kernel files, build options); the
-build time is recorded so reports can show compile time apart from run time. PoCL keeps its
+first device found; PoCL's worker threads are pinned to the CPUs first (:func:`pin_pocl_threads`).
+Programs are built once per process per (kernel files, build options); the build time is
+recorded so reports can show compile time apart from run time. PoCL keeps its
 own on-disk cache in ``$POCL_CACHE_DIR``, so a "cold" build in a new process that finds the
 binary there takes ~0.03 s instead of ~0.5 s; :attr:`Device.builds` records every build.
 

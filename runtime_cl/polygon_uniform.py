@@ -17,9 +17,10 @@ starts from the exact state of the row above it, computed from the same image: e
 direction's prefix sum is the image convolved with the directional prefix of that direction's
 terms (``itaps``, about the kernel's width), and the column sum is the blurred row itself, from
 the kernel's column runs (:func:`column_events`). Both are O(kernel size) per start-up, about
-as much as sweeping half the kernel's height of rows. Taking work is what keeps a thread that
-PoCL wakes late (often, on a virtual machine, after a short kernel is half done) from doubling
-the time, as it did with fixed bands in about a quarter of the calls at 1024^2 after 10 ms idle.
+as much as sweeping half the kernel's height of rows. Taking work keeps a worker that starts
+late (a busy machine; an unpinned PoCL thread queued behind the other one, see
+:func:`runtime_cl.device.pin_pocl_threads`) from doubling the time, as it did with fixed bands
+in about a quarter of the calls at 1024^2 after 10 ms idle.
 
 Exactness: ``q = rint(colour 2^e)`` in int32 with ``2^e max|colour| sum_t |v_t| <= 2^30`` (per
 direction), so the gathered differences fit int32 and everything after them is wrapping int64:
@@ -82,7 +83,8 @@ def exponent_bits(terms: PolygonTerms) -> int:
     direction's gathered sum ``sum_t v_t q`` of ``q = rint(colour 2^e)`` stays within int32
     (``e <= 126``; ``e = 0`` for a black image).
     """
-    s = max(int(np.abs(terms.value[terms.direction == k]).sum()) for k in np.unique(terms.direction))
+    s = max(int(np.abs(terms.value[terms.direction == k]).sum())
+            for k in np.unique(terms.direction))
     return (s - 1).bit_length()
 
 
@@ -119,7 +121,7 @@ def column_events(polygon) -> np.ndarray:
     its column's events at ``dy`` or below."""
     k, x0, y0 = rasterize_polygon(polygon)
     edges = np.diff(np.pad(k, ((1, 1), (0, 0))), axis=0)   # row i: k[i] - k[i - 1]
-    ys, xs = np.nonzero(edges)   # +1: a run starts at row i (event at i - 1); -1: one ended at i - 1
+    ys, xs = np.nonzero(edges)   # +1: a run starts at row i (event at i - 1); -1: one ends at i - 1
     ev = np.stack([ys - 1 + y0, xs + x0, -edges[ys, xs]], 1)
     return ev[np.lexsort((ev[:, 1], ev[:, 0]))].astype(np.int64)
 
@@ -289,7 +291,7 @@ class UniformBlur:
         # rows, for r = 60 at 1024 wide on a Zen 5): taking fewer rows than that loses time
         take_rows = -(-(qrow0 + qlast + 1) // 2) if self.min_take is None else self.min_take
         qr = qrow0 + qlast + 1
-        stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + c + t.nnz
+        stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + t.nnz
         taps = [np.asarray(a, np.int32) for a in (-t.dx[order] * c, t.dy[order], t.value[order])]
         tables = [sp._upload(a) for a in (tinfo, *taps, istart, itaps, events)]
         kernel = sp._cl.Kernel(prg, "uniform_sweep")

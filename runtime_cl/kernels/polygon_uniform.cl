@@ -152,10 +152,9 @@ inline long16 advance(const int2 d, const int16 g, const int v, __global long *c
 // i and claims its next sub-band from it. A worker with nothing left (on arrival too) takes a
 // region no worker owns whole, or else the bottom half of the region with the most sub-bands
 // unclaimed, if that half has at least `min_take` of them, into its own slot; the owner keeps
-// the top half. So a worker that the OS
-// wakes late (PoCL's threads on a busy or virtual machine often join a short kernel after the
-// others have done most of it) still takes half of what is left, and a worker sweeps each of
-// its regions top down with one start-up: consecutive sub-bands carry the state over.
+// the top half. So a worker that starts late (a busy machine; or a PoCL thread the OS queued
+// behind another one) still takes half of what is left, and a worker sweeps each of its
+// regions top down with one start-up: consecutive sub-bands carry the state over.
 inline int claim(volatile __global uint *slot) {
     uint w = atomic_or(slot, 0u);
     for (;;) {
@@ -224,7 +223,8 @@ inline void start_region(const int y0, __global const float *image, const int W,
     for (int l = 0; l < QL; l += 16) STOREL(csum + l, (long16)0);
     for (int k = events[0].x, i = 0; i < n_events; ++k) {
         __global const int *qrow = QROW(y0 - 1 - k);
-        for (int l = 0; l < QL; l += 16) STOREL(csum + l, LOADL(csum + l) + convert_long16(LOADI(qrow + l)));
+        for (int l = 0; l < QL; l += 16)
+            STOREL(csum + l, LOADL(csum + l) + convert_long16(LOADI(qrow + l)));
         for (; i < n_events && events[i].x == k; ++i) {
             __global const long *cs = csum + QLANE0 - events[i].y * NC;
             if (events[i].z > 0)
@@ -318,7 +318,7 @@ inline void sweep_row(const int y, __global const int *qy, __global int *toff,
 // (rows y - QROW0 .. y + QLAST while it sweeps row y), each just before its first use: the ring
 // stays in the caches. Row y is ring row y mod QR.
 // scratch per worker: ring NDIR x RB x (PAD + RL + PAD), column sums (vectors [vc0, vc1)), one
-// row of column sums of q (QL + NC), the taps' q offsets from the current row (n_taps).
+// row of column sums of q (QL), the taps' q offsets from the current row (n_taps).
 __kernel void uniform_sweep(__global const float *image, const int W, const int H, const int LO,
                             __global int *qall, const int QR, const int QL,
                             const int QROW0, const int QLAST, const int QLANE0,
@@ -355,7 +355,7 @@ __kernel void uniform_sweep(__global const float *image, const int W, const int 
     __global long *ring = scratch + me * scratch_stride;
     __global long *acc = ring + (size_t)NDIR * RB * RLP;   // vector v at acc + 16 (v - vc0)
     __global long *csum = acc + (vc1 - vc0) * 16;
-    __global int *toff = (__global int *)(csum + QL + NC);
+    __global int *toff = (__global int *)(csum + QL);
     volatile __global uint *slots = (volatile __global uint *)(ctl + 5);
 
     int sb = claim(slots + me), ys = 0;   // ys: the row of the region's start-up

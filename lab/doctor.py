@@ -46,7 +46,8 @@ def diagnose(say=print) -> list[str]:
 
         d = get_device().describe()
         say(f"  ok   {d['platform']} / {d['device']} ({d['device_version']}), {d['compute_units']} compute "
-            f"units, fp64={d['fp64']}, kernel cache {d['pocl_cache_dir'] or 'PoCL default'}")
+            f"units{' (threads pinned)' if d['threads_pinned'] else ''}, fp64={d['fp64']}, kernel "
+            f"cache {d['pocl_cache_dir'] or 'PoCL default'}")
     except Exception as exc:  # noqa: BLE001
         problems.append(f"OpenCL: {exc}; install PoCL: .venv/bin/pip install pocl-binary-distribution")
     else:

@@ -132,6 +132,7 @@ class Device:
             "max_alloc_mib": int(d.max_mem_alloc_size) >> 20,
             "fp64": self.fp64,
             "pocl_cache_dir": os.environ.get("POCL_CACHE_DIR"),
+            "threads_pinned": os.environ.get(PIN_ENV) == "1",   # see pin_pocl_threads
         }
 
     def compile_ms(self) -> float:

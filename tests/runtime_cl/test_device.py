@@ -66,7 +66,7 @@ def test_pocl_threads_are_pinned_when_the_cpus_allow():
         pytest.skip("this process may not run on CPUs 0..n-1: nothing is pinned")
     if os.environ.get(device_mod.PIN_ENV, "1") != "1":
         pytest.skip(f"{device_mod.PIN_ENV} set by the user")   # pin_pocl_threads only sets "1"
-    assert os.environ.get(device_mod.PIN_ENV) == "1"
+    assert os.environ.get(device_mod.PIN_ENV) == "1" and dev.describe()["threads_pinned"]
     pinned = set()
     for status in Path("/proc/self/task").glob("*/status"):
         cpus = [l.split(":")[1].strip() for l in status.read_text().splitlines()

@@ -135,7 +135,7 @@ class _Kernel:
     events: np.ndarray    # (dy, dx, s): the column sums' start (column_events)
 
 
-# uniform_sweep' arguments, in the kernel's order
+# uniform_sweep's arguments, in the kernel's order
 _ARGS = {n: i for i, n in enumerate(
     "image W H LO q QR QL QROW0 QLAST QLANE0 nvec vc0 vc1 out_lanes ctl nslots SUB min_take dirs "
     "tinfo tdx tdy tval n_taps istart itaps events n_events scratch scratch_stride sbits area "
@@ -152,7 +152,7 @@ class _Plan:
 
     kernel: object
     workers: int
-    ctl: np.ndarray       # the kernel's control words at the start: exponent, start-ups, slots
+    ctl: np.ndarray       # the kernel's control words at the start (see uniform_sweep)
     q_bytes: int
     scratch_bytes: int
     area: int

@@ -161,7 +161,7 @@ def test_exponent_keeps_the_gathered_sums_in_int32(peak):
     s = max(int(np.abs(t.value[t.direction == k]).sum()) for k in np.unique(t.direction))
     assert exponent_bits(t) == (s - 1).bit_length()
     img = np.zeros((9, 20, 3), np.float32)
-    img[7, 13, 1] = peak                      # one pixel of the last band
+    img[7, 13, 1] = peak                      # one pixel of the last rows
     img[2, 3, 0] = np.float32(peak) / 3
     out, info = sp.render(img, 6.0, fixed=True)
     e = int(info["exponent"][0])
@@ -177,7 +177,8 @@ def test_exponent_keeps_the_gathered_sums_in_int32(peak):
 
 
 def test_quantisation_rounds_ties_to_even():
-    """Colours that scale to k + 1/2 (|k| below and above 2^23) round as numpy's rint does."""
+    """Colours that scale to k + 1/2 round as numpy's rint does (ties to even, up to |k| = 2^22);
+    those that scale to integers at 2^23 and above stay as they are."""
     sp = splatter("hexagon")
     img = np.zeros((6, 40, 3), np.float32)
     img[0, 0, 0] = 1.0                                   # fixes the exponent

@@ -29,9 +29,9 @@ $(LLVM): $(STAMP)
 	touch $@
 
 # PoCL 3.0's LLVM 14 cannot name CPUs newer than itself (AMD Zen 5): no kernel would build.
-# runtime_cl.pocl_cpu then names the x86-64 level of the kernel library PoCL loads (else no-op).
+# runtime_cl.device.pocl_cpu then names the x86-64 level of the kernel library PoCL loads (else no-op).
 $(POCL): $(STAMP)
-	$(VPY) -m runtime_cl.pocl_cpu --patch
+	$(VPY) -m runtime_cl.device.pocl_cpu --patch
 	touch $@
 
 demo: setup

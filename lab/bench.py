@@ -30,10 +30,10 @@ def _write(name: str, data: dict) -> Path:
 
 def bench_runtime(scene_path, repeats: int) -> Path:
     """Spreadlets vs Splat vs Filter on a scene: time, SSIM, kernel throughput, ratios."""
-    from runtime_cl.database import SpreadletDatabase
-    from runtime_cl.psf_coords import psf_coords
-    from runtime_cl.render import Renderer
-    from runtime_cl.thin_lens import ThinLens
+    from runtime_cl.psf.database import SpreadletDatabase
+    from runtime_cl.coords.maps import psf_coords
+    from runtime_cl.spreadlets.renderer import Renderer
+    from runtime_cl.camera.thin_lens import ThinLens
 
     from .pipeline import build_databases, inputs_and_reference, load_scene_and_plan, run_method
     from .report.metrics import ssim
@@ -99,7 +99,7 @@ def _bench_models(models) -> list[str]:
 def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int) -> dict:
     """One model: tracing M rays/s, then its database build (wall time, Table 1 row, atlas) or,
     with ``build=False``, the sparsify time of its largest PSF."""
-    from runtime_cl.database import SpreadletDatabase
+    from runtime_cl.psf.database import SpreadletDatabase
 
     from .config import to_table
     from .errors import UserError

@@ -12,7 +12,7 @@
     (and on the stress map at 1920x1080): brute-force dense
     splatting of the rasterised polygon, the Laplacian of it as the sparse kernel (LSR18
     spreadlets, FFT Poisson integration), dx dy (KTB09), all on the same radius table and fixed
-    point (:mod:`runtime_cl.polygon_baselines`; dense and dx dy are checked bit-identical).
+    point (:mod:`runtime_cl.polygon.baselines`; dense and dx dy are checked bit-identical).
 (c) Uniform blur against a scipy.fft convolution (MHU21 Fig. 8): r = 60, sizes 1024^2 ...
     4096^2, RGB float32, the kernel's spectrum precomputed (as in the paper), all channels in one
     rfft2/irfft2 call (the faster of per-channel and batched here), scipy on all cores. Two FFT
@@ -69,7 +69,7 @@ def dof_scene_depth(h: int, w: int, fov_x_deg: float = 40.0) -> np.ndarray:
 def scene_radius(depth: np.ndarray, r_max: float, focus_m: float = 3.0) -> np.ndarray:
     """``|CoC|`` (px) of a thin lens focused at ``focus_m``, its f-number set so that the
     largest radius over ``depth`` is ``r_max``."""
-    from runtime_cl.thin_lens import ThinLens
+    from runtime_cl.camera.thin_lens import ThinLens
 
     coc = np.abs(ThinLens(50.0, 1.0, focus_m).coc_radius_px(depth, depth.shape[1]))
     return (coc * (r_max / coc.max())).astype(np.float32)
@@ -166,7 +166,7 @@ def _time_vs_radius(repeats, quick):
 
 
 def _methods(repeats, quick):
-    from runtime_cl.polygon_baselines import BaselineSplatter
+    from runtime_cl.polygon.baselines import BaselineSplatter
 
     from .polygon_aperture import polygon_aperture
 
@@ -210,8 +210,8 @@ def _method_row(sp, base, img, rad, radius_map, repeats, dense_max):
 
 
 def _uniform_vs_fft(repeats, quick):
-    from runtime_cl.polygon_kernel import rasterize_polygon
-    from runtime_cl.polygon_splat import PolygonSplatter
+    from runtime_cl.polygon.kernel import rasterize_polygon
+    from runtime_cl.polygon.splat import PolygonSplatter
 
     from .sparsify.polygon import direction_set, rectify
     from .sparsify.polygon_shapes import shape

@@ -70,7 +70,7 @@ def cmd_precompute(args) -> int:
             shutil.copyfile(r.path, args.out)
             print(f"{model.name}: copied to {args.out}")
         if args.atlas:
-            from runtime_cl.database import SpreadletDatabase
+            from runtime_cl.psf.database import SpreadletDatabase
 
             from .report.atlas import write_atlas
 
@@ -129,10 +129,10 @@ def cmd_render(args) -> int:
     if args.db is None:
         raise UserError(f"--db: --method {args.method} needs a spreadlet database (splatlab precompute "
                         "MODEL --out FILE); only --method polygon works without one")
-    from runtime_cl.database import SpreadletDatabase
-    from runtime_cl.psf_coords import needs_motion, psf_coords
-    from runtime_cl.render import Renderer
-    from runtime_cl.thin_lens import ThinLens
+    from runtime_cl.psf.database import SpreadletDatabase
+    from runtime_cl.coords.maps import needs_motion, psf_coords
+    from runtime_cl.spreadlets.renderer import Renderer
+    from runtime_cl.camera.thin_lens import ThinLens
 
     from .exr_io import write_rgb
     from .pipeline import read_input, read_motion
@@ -188,7 +188,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_db(args) -> int:
-    from runtime_cl.database import SpreadletDatabase
+    from runtime_cl.psf.database import SpreadletDatabase
 
     db = SpreadletDatabase.load(args.file)
     print(json.dumps(db.info(), indent=2))

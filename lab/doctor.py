@@ -42,7 +42,7 @@ def diagnose(say=print) -> list[str]:
                             "--force-reinstall mitsuba==3.9.1")
     say("OpenCL device:")
     try:
-        from runtime_cl.device import get_device
+        from runtime_cl.device.opencl import get_device
 
         d = get_device().describe()
         say(f"  ok   {d['platform']} / {d['device']} ({d['device_version']}), {d['compute_units']} compute "
@@ -51,7 +51,7 @@ def diagnose(say=print) -> list[str]:
     except Exception as exc:  # noqa: BLE001
         problems.append(f"OpenCL: {exc}; install PoCL: .venv/bin/pip install pocl-binary-distribution")
     else:
-        from runtime_cl.pocl_cpu import probe, problem
+        from runtime_cl.device.pocl_cpu import probe, problem
 
         built = probe()
         msg = problem(built)

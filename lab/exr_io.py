@@ -22,7 +22,7 @@ import numpy as np
 import OpenEXR
 
 from runtime_cl.atomic_file import atomic_path
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.camera.thin_lens import ThinLens
 
 from .config import from_table
 from .errors import UserError

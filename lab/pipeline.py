@@ -15,29 +15,30 @@ from pathlib import Path
 
 import numpy as np
 
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
+from .cache_key import code_digest
 from .errors import UserError
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
 from .plan import Plan, make_plan
 from .precompute import ROOT, cache_root, precompute
 from .scene import Scene, load_scene
 
-RENDER_SOURCES = ("lab/reference", "lab/scene.py", "lab/scene_objects.py", "lab/exr_io.py")
+# What renders the input and the reference (their imports, lab.optics included, are found, not listed).
+RENDER_ROOTS = ("lab.reference.render", "lab.reference.labelled")
 TIMED_RUNS = 3
 DEPTH_LAYERS = 8   # global depth layers of the polygon passes (LSR18 section 6)
 
 
-def _render_hash(scene: Scene) -> str:
+def render_key(scene: Scene, packages=None) -> str:
+    """12 hex digits naming a scene's input and reference: the scene's render settings and the
+    content of the code that renders them (:data:`RENDER_ROOTS` and what they import);
+    ``packages`` as for :func:`lab.cache_key.code_digest`."""
     data = scene.to_dict()
     data.pop("psf", None)
     data.pop("precompute", None)
-    h = hashlib.sha256(json.dumps(data, sort_keys=True).encode())
-    for rel in RENDER_SOURCES:
-        path = ROOT / rel
-        for f in sorted(path.rglob("*.py")) if path.is_dir() else [path]:
-            h.update(f.read_bytes())
-    return h.hexdigest()[:12]
+    key = json.dumps({"scene": data, "code": code_digest(RENDER_ROOTS, packages)}, sort_keys=True)
+    return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 
 def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tuple:
@@ -45,7 +46,7 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
     from .reference.labelled import render_labelled
     from .reference.render import render_reference
 
-    folder = cache_root() / "renders" / f"{scene.name}-{_render_hash(scene)}"
+    folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"
     folder.mkdir(parents=True, exist_ok=True)
     info = {"cache": str(folder)}
     input_path, ref_path = folder / "input.exr", folder / "reference.exr"
@@ -108,7 +109,7 @@ def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool 
 def run_method(renderer, image: LabelledImage, coords, method: str, runs: int = TIMED_RUNS) -> tuple:
     """Warm up once (kernel builds), then time ``runs`` renders; returns (image, timing summary).
 
-    ``coords``: the :class:`runtime_cl.psf_coords.PsfCoords` of the image (coordinates, angles)."""
+    ``coords``: the :class:`runtime_cl.coords.maps.PsfCoords` of the image (coordinates, angles)."""
     first, warm = renderer.render(image.rgb, coords.coords, method, angle=coords.angle)
     samples = [renderer.render(image.rgb, coords.coords, method, angle=coords.angle)[1] for _ in range(runs)]
 
@@ -129,7 +130,7 @@ def run_polygon(plan: Plan, image: LabelledImage, runs: int = TIMED_RUNS, progre
     camera header's iris: name -> (image, timing). Each is warmed up once (kernel builds, radius
     table), then timed ``runs`` times; ``time_ms`` is the median wall time of a render call
     (uploads, kernels, downloads and the layer compositing on the host)."""
-    from runtime_cl.thin_lens import ThinLens
+    from runtime_cl.camera.thin_lens import ThinLens
 
     from tqdm import tqdm
 
@@ -167,9 +168,9 @@ def run_runtime(plan: Plan, image: LabelledImage, databases: dict, runs: int = T
                                          "transfer_ms": 0.0, "compile_ms": 0.0, "runs": 0})}
     if plan.runtime_passes[0] == "polygon":
         return run_polygon(plan, image, runs, progress)
-    from runtime_cl.psf_coords import psf_coords
-    from runtime_cl.render import Renderer
-    from runtime_cl.thin_lens import ThinLens
+    from runtime_cl.coords.maps import psf_coords
+    from runtime_cl.spreadlets.renderer import Renderer
+    from runtime_cl.camera.thin_lens import ThinLens
 
     from tqdm import tqdm
 

@@ -3,9 +3,9 @@
 A built-in aperture shape (:mod:`lab.sparsify.polygon_shapes`) or a camera's iris
 (:class:`lab.optics.iris.Iris`, ``[camera] aperture``) is rectified once per run (MHU21 section 4,
 :func:`lab.sparsify.polygon.rectify`) and handed to the runtime's exact splatter
-(:class:`runtime_cl.polygon_splat.PolygonSplatter`). The radius of every pixel is its thin-lens
+(:class:`runtime_cl.polygon.splat.PolygonSplatter`). The radius of every pixel is its thin-lens
 circle of confusion, ``|CoC|`` in pixels, from the EXR's depth and camera header. With depth
-layers (:mod:`runtime_cl.polygon_layers`) the pixels are splatted per layer and composited, from
+layers (:mod:`runtime_cl.layers.composite`) the pixels are splatted per layer and composited, from
 the flat image or from the EXR's ``layerN.*`` channels.
 
 The kernel is the iris as it images behind the focus plane; in front of it the PSF is rotated
@@ -44,7 +44,7 @@ class PolygonAperture:
         D = :func:`lab.sparsify.polygon.direction_set` (m).
     edges : int
         N, the rectification's edge budget.
-    splatter : runtime_cl.polygon_splat.PolygonSplatter
+    splatter : runtime_cl.polygon.splat.PolygonSplatter
     rectify_s : float
         Wall time of the rectification (graph construction + traversal), seconds.
     """
@@ -68,7 +68,7 @@ def polygon_aperture(name: str = "hexagon", directions_m: int = 2, edges: int | 
         Edge directions are all reduced (run, rise) with components up to m (MHU21: m = 2).
     edges : int, optional
         Most edges of the rectified polygon (default :func:`default_edges`).
-    device : runtime_cl.device.Device, optional
+    device : runtime_cl.device.opencl.Device, optional
 
     Raises
     ------
@@ -98,7 +98,7 @@ def iris_aperture(iris, directions_m: int = 2, edges: int | None = None, device=
 
 
 def _rectified(name, outline, directions_m, edges, device) -> PolygonAperture:
-    from runtime_cl.polygon_splat import PolygonSplatter
+    from runtime_cl.polygon.splat import PolygonSplatter
 
     from .sparsify.polygon import direction_set, rectify
 
@@ -115,7 +115,7 @@ def coc_radius(image, depth=None) -> np.ndarray:
 
 def signed_coc(image, depth=None) -> np.ndarray:
     """Signed CoC in pixels (negative in front of the focus plane) from the thin-lens header."""
-    from runtime_cl.thin_lens import ThinLens
+    from runtime_cl.camera.thin_lens import ThinLens
 
     camera = ThinLens.from_json(image.camera, "input camera")
     return camera.coc_radius_px(image.depth if depth is None else depth, image.width).astype(np.float32)
@@ -130,7 +130,7 @@ def render_polygon(image, aperture: PolygonAperture, layers: int | None = None,
     image : lab.exr_io.LabelledImage
     aperture : PolygonAperture
     layers : int, optional
-        Global depth layers (:func:`runtime_cl.polygon_layers.render_layers`); ``None`` splats
+        Global depth layers (:func:`runtime_cl.layers.composite.render_layers`); ``None`` splats
         the flat image in one pass without occlusion (MHU21 as is).
     layered_input : bool, default False
         With ``layers``: splat the image's ``layerN.*`` layers instead of its flat R, G, B, A, Z.
@@ -142,7 +142,7 @@ def render_polygon(image, aperture: PolygonAperture, layers: int | None = None,
         Kernel times, ``max_radius_px``, the aperture's rectification and table times, and for
         layers the runtime's per-layer figures.
     """
-    from runtime_cl.polygon_layers import PixelLayer, render_layers
+    from runtime_cl.layers.composite import PixelLayer, render_layers
 
     if layers is None:
         if layered_input:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.camera.thin_lens import ThinLens
 
 from .config import from_table, to_table
 from .errors import UserError
@@ -136,7 +136,7 @@ class Camera:
             raise UserError(f"fov_deg = {self.fov_deg} must be between 0 and 180 degrees")
 
     def thin_lens(self) -> ThinLens | None:
-        """The :class:`runtime_cl.thin_lens.ThinLens` of a thin-lens camera, ``None`` for a pinhole."""
+        """The :class:`runtime_cl.camera.thin_lens.ThinLens` of a thin-lens camera, ``None`` for a pinhole."""
         if self.model != "thin":
             return None
         n = self.f_number

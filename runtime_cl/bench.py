@@ -2,7 +2,7 @@
 
 Two kinds of scene: ``ramp``/``random`` give every pixel a PSF with exactly ``spreadlets``
 spreadlets (the kernel's raw rate at a chosen count); ``defocus`` is laid out like a shallow
-depth-of-field photograph (:func:`runtime_cl.synthetic.defocus_scene`: most pixels with CoC
+depth-of-field photograph (:func:`runtime_cl.psf.synthetic.defocus_scene`: most pixels with CoC
 radii of 0.55-0.9 ``r_max``, some in focus) and uses the exact Laplacian of every disc, so the
 spreadlets-vs-Splat ratio is the one a real scene with such PSFs would see. With the command
 line's defaults (r_max 100, discs with a 1-pixel soft rim) a disc of radius 80 has 1884
@@ -21,11 +21,11 @@ import json
 
 import numpy as np
 
-from .device import Device, get_device
-from .errors import InputError
-from .render import METHODS, Renderer
-from .splat import RUN_MAX
-from .synthetic import defocus_scene, disc_database
+from runtime_cl.device.opencl import Device, get_device
+from runtime_cl.errors import InputError
+from runtime_cl.spreadlets.renderer import METHODS, Renderer
+from runtime_cl.spreadlets.splat import RUN_MAX
+from runtime_cl.psf.synthetic import defocus_scene, disc_database
 
 LAYOUTS = ("ramp", "random", "defocus")
 
@@ -84,7 +84,7 @@ def run(height: int = 1024, width: int = 1024, spreadlets: int | None = 50, r_ma
         Longest same-cell pixel run the splat kernels batch (default 32; 1: pixel by pixel).
     edge : float
         Soft rim of the discs in pixels (default 0: hard discs; see
-        :func:`runtime_cl.synthetic.disc_psf`): more exact spreadlets per PSF.
+        :func:`runtime_cl.psf.synthetic.disc_psf`): more exact spreadlets per PSF.
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """Thin-lens optics in Dr.Jit: THE lab's source of truth (PSF tracing now, Mitsuba-side code later).
 
-Same parameters, validation and numpy CoC as the runtime's mirror :class:`runtime_cl.thin_lens.ThinLens`
+Same parameters, validation and numpy CoC as the runtime's mirror :class:`runtime_cl.camera.thin_lens.ThinLens`
 (this class extends it), plus the Dr.Jit versions used per ray.
 
 Conventions. The optical axis is z; an object point lies at depth z > 0 in front of the lens
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import drjit as dr
 from drjit.llvm import Array2f
 
-from runtime_cl.thin_lens import ThinLens as _ThinLensParameters
+from runtime_cl.camera.thin_lens import ThinLens as _ThinLensParameters
 
 __all__ = ["ThinLens"]
 

@@ -6,7 +6,7 @@ Modules, one concept each:
 - :mod:`.cell` - the unit of work (trace + sparsify one cell) and its picklable task form.
 - :mod:`.shards` - one atomic file per finished cell, so jobs resume after any interruption.
 - :mod:`.executors` - this process, ``--workers N`` local processes, or a Dask cluster.
-- :mod:`.consolidate` - shards, in cell order, into one database (``runtime_cl.database``).
+- :mod:`.consolidate` - shards, in cell order, into one database (``runtime_cl.psf.database``).
 - :mod:`.job` - :func:`precompute`, the whole job with a progress bar.
 - :mod:`.target` - ``splatlab precompute MODEL|SCENE`` and ``--set KEY=VALUE``.
 """

@@ -146,7 +146,7 @@ def run_cell(job: CellJob, cell: int, folder: str | None = None) -> dict:
     UserError
         The worker runs different splatlab code than the job, or the model rejects the cell.
     """
-    mine = source_digest(cached=True)
+    mine = source_digest(job.model, cached=True)
     if mine != job.code:
         import socket
 

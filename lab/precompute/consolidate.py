@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from runtime_cl.database import DatabaseBuilder
+from runtime_cl.psf.database import DatabaseBuilder
 
 from lab.config import to_table
 from lab.errors import UserError
@@ -26,7 +26,7 @@ def database_params(model, digest: str) -> dict:
 
 
 def consolidate(model, digest: str, folder: Path, out: Path) -> None:
-    """Build ``out`` (atomically, through :mod:`runtime_cl.database`) from the shards in ``folder``.
+    """Build ``out`` (atomically, through :mod:`runtime_cl.psf.database`) from the shards in ``folder``.
 
     Raises
     ------

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.errors import InputError
 
 from lab.errors import UserError
@@ -118,7 +118,7 @@ def precompute(model, *, force: bool = False, progress: bool = True, workers: in
         if workers != 1:
             raise UserError(f"--workers {workers} with --scheduler {scheduler}: choose one; the "
                             "cluster's workers are started with `dask worker`")
-    code = source_digest()
+    code = source_digest(model.name)
     digest = content_hash(model.name, model.config, code)
     out = database_path(model.name, digest)
     if not force and _reusable(out, model.name):

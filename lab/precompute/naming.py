@@ -2,31 +2,30 @@
 
 A database is named ``<model>-<hash>.spdb`` under ``<cache>/db/``; its shards live under
 ``<cache>/precompute/<model>-<hash>/`` while the job runs. The hash covers the model name, its
-configuration and the source of every file whose code shapes the result (optics, tracer,
-sparsifier, database format, shard format, consolidation), so an unchanged configuration is
-reused and any change - to a setting or to that code - builds a new database. Files that only
-schedule the work (executors, progress, CLI) are not hashed: running on more workers must give,
-and gives, the same database.
+configuration and the content of every module the result is made by: the model's own module,
+the cell (trace + sparsify) and the consolidation, with everything they import
+(:mod:`lab.cache_key`). An unchanged configuration is reused and any change - to a setting or to
+that code - builds a new database. Modules that only schedule the work (executors, progress,
+CLI) are not imported by those and not hashed: running on more workers must give, and gives,
+the same database.
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import os
-from functools import lru_cache
 from pathlib import Path
 
+from lab.cache_key import cached_code_digest, code_digest
 from lab.config import to_table
 
-__all__ = ["ROOT", "SOURCES", "cache_root", "source_digest", "content_hash", "database_path",
+__all__ = ["ROOT", "cache_root", "code_roots", "source_digest", "content_hash", "database_path",
            "shard_dir"]
 
 ROOT = Path(__file__).resolve().parents[2]
 
-# The code whose output a database is: a change to any of these files rebuilds.
-SOURCES = ("lab/optics", "lab/psf_tracing", "lab/sparsify", "runtime_cl/database.py",
-           "runtime_cl/psf_space.py", "runtime_cl/integrate.py", "lab/precompute/cell.py",
-           "lab/precompute/shards.py", "lab/precompute/consolidate.py")
+# What makes a database, beside its model's own module (their imports are found, not listed).
+PIPELINE = ("lab.precompute.cell", "lab.precompute.consolidate")
 
 
 def cache_root() -> Path:
@@ -34,32 +33,26 @@ def cache_root() -> Path:
     return Path(os.environ.get("SPLATLAB_CACHE", ROOT / ".cache"))
 
 
-def _digest_now() -> str:
-    h = hashlib.sha256()
-    for rel in SOURCES:
-        path = ROOT / rel
-        files = sorted(path.rglob("*.py")) if path.is_dir() else [path]
-        for f in files:
-            h.update(str(f.relative_to(ROOT)).encode())
-            h.update(f.read_bytes())
-    return h.hexdigest()
+def code_roots(model_name: str) -> tuple:
+    """The modules whose imports make ``model_name``'s database: its model module and :data:`PIPELINE`."""
+    from lab.psf_tracing.models import get_model
+
+    return (get_model(model_name).__module__,) + PIPELINE
 
 
-def source_digest(cached: bool = False) -> str:
-    """sha256 (hex) over the path and bytes of every file in :data:`SOURCES`.
+def source_digest(model_name: str, cached: bool = False) -> str:
+    """sha256 (hex) of the code that makes ``model_name``'s database (:func:`code_roots`).
 
     Parameters
     ----------
+    model_name : str
+        Registered model name.
     cached : bool, default False
         Reuse this process's first answer (worker processes check every task against it;
         the job itself always reads the files afresh).
     """
-    return _digest_cached() if cached else _digest_now()
-
-
-@lru_cache(maxsize=1)
-def _digest_cached() -> str:
-    return _digest_now()
+    roots = code_roots(model_name)
+    return cached_code_digest(roots) if cached else code_digest(roots)
 
 
 def content_hash(model_name: str, config, code: str | None = None) -> str:
@@ -75,7 +68,7 @@ def content_hash(model_name: str, config, code: str | None = None) -> str:
         :func:`source_digest` if already computed.
     """
     key = json.dumps({"model": model_name, "config": to_table(config),
-                      "code": code or source_digest()}, sort_keys=True)
+                      "code": code or source_digest(model_name)}, sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 

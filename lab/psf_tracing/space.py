@@ -1,6 +1,6 @@
 """PSF space for the precompute: the nested grid's inverse map g^-1(i) as a list of boxes.
 
-The forward map g(x) (needed at runtime) lives in :mod:`runtime_cl.psf_space`; this module
+The forward map g(x) (needed at runtime) lives in :mod:`runtime_cl.psf.grid`; this module
 enumerates the cells level by level in exactly that order and gives each its box, in grid
 coordinates and in physical coordinates (LSR18 section 5.2, Fig. 5 d).
 """
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from runtime_cl.psf_space import NestedGrid, triangular
+from runtime_cl.psf.grid import NestedGrid, triangular
 
 __all__ = ["NestedGrid", "Box", "boxes", "box"]
 
@@ -33,7 +33,7 @@ class Box:
 
 
 def _level_cells(grid: NestedGrid, level: int):
-    """Lattice coordinates k of the cells of ``level`` in index order (see runtime_cl.psf_space)."""
+    """Lattice coordinates k of the cells of ``level`` in index order (see runtime_cl.psf.grid)."""
     ns, kmax = grid.ns, grid.cells_per_row(level)
     for j in range(ns):
         ranges = [range(1, kmax) if d < j else range(kmax) for d in range(ns) if d != j]

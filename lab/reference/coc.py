@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.camera.thin_lens import ThinLens
 
 from ..errors import UserError
 from ..exr_io import LabelledImage

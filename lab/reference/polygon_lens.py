@@ -6,7 +6,7 @@ camera with the lens point drawn uniformly from :class:`lab.optics.aperture.Poly
 the position sample fixes the point on the planar focus plane at ``focus_distance`` (camera
 space z), and the ray runs from the lens point through it, as in Mitsuba's ``thinlens.cpp``
 (same projection, near/far clip handling and weight 1). A point at planar depth z then images
-to the iris scaled to the CoC radius of :class:`runtime_cl.thin_lens.ThinLens`, upright behind
+to the iris scaled to the CoC radius of :class:`runtime_cl.camera.thin_lens.ThinLens`, upright behind
 the focus plane and rotated by 180 degrees in front of it.
 
 Orientation: the iris is given as seen in the image (x right, y up); Mitsuba's camera space has

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from runtime_cl.integrate import laplacian5, poisson_integrate
+from runtime_cl.integrate.poisson import laplacian5, poisson_integrate
 
 from .images import _atomic_save
 

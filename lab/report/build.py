@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 from .images import save_heatmap, save_render
 from .machine import machine_info

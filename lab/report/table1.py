@@ -42,7 +42,7 @@ def _drawn_fraction(db) -> np.ndarray:
 
 
 def table1_row(db) -> dict:
-    """Our Table 1 row for a loaded :class:`~runtime_cl.database.SpreadletDatabase`."""
+    """Our Table 1 row for a loaded :class:`~runtime_cl.psf.database.SpreadletDatabase`."""
     size = os.path.getsize(db.path) if db.path and os.path.exists(db.path) else db.nbytes()
     row = {"model": db.model, "ns": db.grid.ns, "color": db.channels == 3, "samples": db.n_samples,
            "beta": list(db.grid.beta), "size_MB": size / 1e6,

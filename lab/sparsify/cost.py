@@ -1,7 +1,7 @@
 """LSR18's reconstruction cost c: L1 between the PSF and its integrated spreadlets, on a box.
 
 :class:`BoxCost` applies exactly the runtime's integration
-(:func:`runtime_cl.integrate.poisson_integrate`: periodic FFT inverse of the 5-point Laplacian,
+(:func:`runtime_cl.integrate.poisson.poisson_integrate`: periodic FFT inverse of the 5-point Laplacian,
 then the border ring's mean set to zero) on the PSF's working box instead of the whole PSF
 image, with the eigenvalues computed once. The annealer calls it a few hundred times per PSF, so
 the transforms run in float32 through scipy.fft (30 % faster than float64 at 576^2; on a 250 px disc

@@ -1,6 +1,6 @@
 """Step 1 of LSR18 section 5.5: the Laplacian of the PSF, its importance and its working box.
 
-The Laplacian is the runtime's own operator (:func:`runtime_cl.integrate.laplacian5`, the 3x3
+The Laplacian is the runtime's own operator (:func:`runtime_cl.integrate.poisson.laplacian5`, the 3x3
 filter), evaluated in float64: a float32 PSF is then summed exactly, so constant and linear regions
 give exact zeros and never become spreadlet candidates.
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.ndimage
 
-from runtime_cl.integrate import fft_friendly, laplacian5
+from runtime_cl.integrate.poisson import fft_friendly, laplacian5
 
 __all__ = ["psf_laplacian", "local_level", "importance", "Box", "working_box", "LEVEL_REACH"]
 

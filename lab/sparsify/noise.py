@@ -39,7 +39,7 @@ import numpy as np
 import scipy.ndimage
 import scipy.signal
 
-from runtime_cl.integrate import laplacian5
+from runtime_cl.integrate.poisson import laplacian5
 
 from .laplacian import LEVEL_REACH, local_level
 

@@ -14,7 +14,7 @@ step edge can be held by its corner resting on an input edge and touch no vertex
 example is in tests/lab/sparsify/test_polygon_rectify.py). The result always encloses the input.
 
 Coordinates are kept as given (``y`` down for image kernels); :meth:`Rectified.unit` gives the
-polygon in radius units for :func:`runtime_cl.polygon_kernel.scale_polygon`.
+polygon in radius units for :func:`runtime_cl.polygon.kernel.scale_polygon`.
 """
 from __future__ import annotations
 

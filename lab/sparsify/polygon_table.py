@@ -2,7 +2,7 @@
 
 * ``laplacian`` (LSR18): the 5-point Laplacian of the rasterised kernel ``K``.
 * ``dxdy`` (KTB09): ``K(x, y) - K(x-1, y) - K(x, y-1) + K(x-1, y-1)``.
-* ``directional`` (MHU21): all terms of :func:`runtime_cl.polygon_kernel.differenced_kernel`.
+* ``directional`` (MHU21): all terms of :func:`runtime_cl.polygon.kernel.differenced_kernel`.
 
 The shapes are rectified with MHU21's D (:func:`lab.sparsify.polygon.direction_set` (2)) and,
 as in the paper, "radius" is the half-width: the distance from the centre to the two vertical
@@ -18,7 +18,7 @@ import numpy as np
 from lab.errors import UserError
 from lab.sparsify.polygon import direction_set, rectify
 from lab.sparsify.polygon_shapes import shape
-from runtime_cl.polygon_kernel import differenced_kernel, rasterize_polygon, scale_polygon
+from runtime_cl.polygon.kernel import differenced_kernel, rasterize_polygon, scale_polygon
 
 __all__ = ["PAPER_TABLE1", "METHODS", "TABLE1_SHAPES", "table1_polygon", "nonzero_counts",
            "table1", "format_table1"]

@@ -37,7 +37,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from lab.errors import UserError
-from runtime_cl.integrate import poisson_integrate
+from runtime_cl.integrate.poisson import poisson_integrate
 
 from .anneal import anneal
 from .cost import BoxCost
@@ -93,7 +93,7 @@ class SparsePSF:
         """The PSF as the runtime draws it, centred in an (R, R, C) float32 image.
 
         Spreadlets are splatted into a Laplacian canvas and integrated with
-        :func:`runtime_cl.integrate.poisson_integrate`; the fast track places ``dense``.
+        :func:`runtime_cl.integrate.poisson.poisson_integrate`; the fast track places ``dense``.
 
         Parameters
         ----------

@@ -5,11 +5,11 @@ import pytest
 
 from lab.cli import main
 from lab.exr_io import LabelledImage, read_rgb, write_labelled
-from runtime_cl.database import DatabaseBuilder
-from runtime_cl.psf_coords import psf_coords
-from runtime_cl.psf_space import NestedGrid
-from runtime_cl.render import Renderer
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.psf.database import DatabaseBuilder
+from runtime_cl.coords.maps import psf_coords
+from runtime_cl.psf.grid import NestedGrid
+from runtime_cl.spreadlets.renderer import Renderer
+from runtime_cl.camera.thin_lens import ThinLens
 
 CAMERA = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 2.0, "focus_distance_m": 2.0,
           "sensor_width_mm": 36.0}
@@ -51,7 +51,7 @@ def test_render_reads_the_motion_channels(combined_db, tmp_path, capsys):
     out = tmp_path / "out.exr"
     assert main(["render", str(path), "--db", str(combined_db), "--method", "splat", "--out", str(out)]) == 0
     assert "splat" in capsys.readouterr().out
-    from runtime_cl.database import SpreadletDatabase
+    from runtime_cl.psf.database import SpreadletDatabase
 
     db = SpreadletDatabase.load(combined_db)
     pc = psf_coords(ThinLens.from_json(CAMERA), image.depth, db, np.stack([mx, my], axis=-1))

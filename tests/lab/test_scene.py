@@ -8,7 +8,7 @@ import pytest
 
 from lab.errors import UserError
 from lab.scene import load_camera, load_scene, parse_scene
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.camera.thin_lens import ThinLens
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from runtime_cl.database import DatabaseBuilder
-from runtime_cl.integrate import laplacian5
-from runtime_cl.psf_space import NestedGrid
+from runtime_cl.psf.database import DatabaseBuilder
+from runtime_cl.integrate.poisson import laplacian5
+from runtime_cl.psf.grid import NestedGrid
 
 STATS = {"sparsity": 0.5, "ssim": 1.0, "l1": 0.0}
 

@@ -7,7 +7,7 @@ runtime. The star is symmetric: mirror-image polygons tie in ``scale_polygon``'s
 """
 import numpy as np
 
-from runtime_cl.polygon_kernel import rasterize_polygon
+from runtime_cl.polygon.kernel import rasterize_polygon
 
 SHAPES = {
     "hexagon": ([[0.8660254037844387, -0.5669872981077806], [0.8660254037844387, 0.5669872981077806],

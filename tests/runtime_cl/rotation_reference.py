@@ -1,4 +1,4 @@
-"""Plain numpy references for the rotating kernels (float64), mirroring ``kernels/rotate.cl``."""
+"""Plain numpy references for the rotating kernels (float64), mirroring ``kernels/spreadlets/rotate.cl``."""
 from __future__ import annotations
 
 import numpy as np

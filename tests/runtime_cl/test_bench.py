@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from runtime_cl.bench import rotation, run
-from runtime_cl.synthetic import defocus_scene, disc_database
+from runtime_cl.psf.synthetic import defocus_scene, disc_database
 
 
 def test_small_benchmark_reports_rates():

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from cl_reference import STATS, random_database
 
-from runtime_cl.database import DatabaseBuilder, SpreadletDatabase
+from runtime_cl.psf.database import DatabaseBuilder, SpreadletDatabase
 from runtime_cl.errors import InputError
-from runtime_cl.psf_space import NestedGrid
+from runtime_cl.psf.grid import NestedGrid
 
 
 @pytest.fixture

@@ -6,8 +6,8 @@ from pathlib import Path
 import pyopencl as cl
 import pytest
 
-import runtime_cl.device as device_mod
-from runtime_cl.device import get_device
+import runtime_cl.device.opencl as device_mod
+from runtime_cl.device.opencl import get_device
 from runtime_cl.errors import InputError
 
 
@@ -23,7 +23,7 @@ def test_default_device_is_pocl_and_shared():
 
 def test_program_is_built_once_per_options():
     dev = get_device()
-    files = ("psf_space.cl", "psf_index.cl")
+    files = ("psf/psf_space.cl", "psf/psf_index.cl")
     options = _grid_options() + ["-DDEVICE_TEST_TOKEN=1"]  # no other code builds with this option
     p1, r1 = dev.program(files, options)
     p2, r2 = dev.program(files, options)
@@ -36,8 +36,8 @@ def test_program_is_built_once_per_options():
 
 
 def _grid_options():
-    from runtime_cl.psf_space import NestedGrid
-    from runtime_cl.psf_space_cl import PsfSpaceTables
+    from runtime_cl.psf.grid import NestedGrid
+    from runtime_cl.psf.grid_cl import PsfSpaceTables
 
     return PsfSpaceTables(NestedGrid(9, (2.0, 1.0), ((0, 1), (0, 1)), ("a", "b")), True).options
 

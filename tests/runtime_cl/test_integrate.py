@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from runtime_cl.integrate import fft_friendly, laplacian5, poisson_integrate
+from runtime_cl.integrate.poisson import fft_friendly, laplacian5, poisson_integrate
 
 
 @pytest.mark.parametrize("shape", [(17, 23), (64, 64, 3), (3, 3)])

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from runtime_cl import pocl_cpu
+from runtime_cl.device import pocl_cpu
 
 V3 = ["cx16", "lahf_lm", "popcnt", "sse4_1", "sse4_2", "ssse3", "avx", "avx2", "bmi1", "bmi2",
       "f16c", "fma", "abm", "movbe", "xsave"]

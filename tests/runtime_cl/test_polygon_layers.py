@@ -11,8 +11,8 @@ import pytest
 from polygon_reference import footprint, shape
 
 from runtime_cl.errors import InputError
-from runtime_cl.polygon_layers import PixelLayer, layer_edges, render_layers
-from runtime_cl.polygon_splat import PolygonSplatter
+from runtime_cl.layers.composite import PixelLayer, layer_edges, render_layers
+from runtime_cl.polygon.splat import PolygonSplatter
 
 
 @pytest.fixture(scope="module")

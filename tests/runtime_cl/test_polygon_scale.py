@@ -4,8 +4,8 @@ import pytest
 from polygon_reference import shape
 
 from runtime_cl.errors import InputError
-from runtime_cl.polygon_kernel import scale_polygon
-from runtime_cl.polygon_scale import ScaleOracle, ScaleTable, TOLERANCE, _f32_next
+from runtime_cl.polygon.kernel import scale_polygon
+from runtime_cl.polygon.scale import ScaleOracle, ScaleTable, TOLERANCE, _f32_next
 
 
 def cost(unit, w, r):

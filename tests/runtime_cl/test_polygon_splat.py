@@ -9,8 +9,8 @@ import pytest
 from polygon_reference import shape, splat_fixed, splat_float64
 
 from runtime_cl.errors import InputError
-from runtime_cl.polygon_kernel import scale_polygon
-from runtime_cl.polygon_splat import ROW, PolygonSplatter
+from runtime_cl.polygon.kernel import scale_polygon
+from runtime_cl.polygon.splat import ROW, PolygonSplatter
 
 _SPLATTERS = {}
 

@@ -1,12 +1,12 @@
-"""O(vertices) directional differences (runtime_cl.polygon_terms) against the brute-force rasteriser."""
+"""O(vertices) directional differences (runtime_cl.polygon.terms) against the brute-force rasteriser."""
 import numpy as np
 import pytest
 from polygon_reference import shape
 
 from runtime_cl.errors import InputError
-from runtime_cl.polygon_kernel import (differenced_kernel, edge_direction, rasterize_polygon,
+from runtime_cl.polygon.kernel import (differenced_kernel, edge_direction, rasterize_polygon,
                                        reconstruct, scale_polygon)
-from runtime_cl.polygon_terms import is_simple, polygon_terms, to_differenced_kernel
+from runtime_cl.polygon.terms import is_simple, polygon_terms, to_differenced_kernel
 
 
 def dirs_of(w):

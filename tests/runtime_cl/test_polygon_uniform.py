@@ -9,9 +9,9 @@ import pytest
 from polygon_reference import SHAPES, shape, splat_fixed
 
 from runtime_cl.errors import InputError
-from runtime_cl.polygon_kernel import directional_prefix_sum, rasterize_polygon
-from runtime_cl.polygon_splat import PolygonSplatter
-from runtime_cl.polygon_uniform import column_events, directional_prefix_taps, exponent_bits
+from runtime_cl.polygon.kernel import directional_prefix_sum, rasterize_polygon
+from runtime_cl.polygon.splat import PolygonSplatter
+from runtime_cl.polygon.uniform import column_events, directional_prefix_taps, exponent_bits
 
 _SPLATTERS = {}
 
@@ -94,7 +94,7 @@ def test_every_step_width_is_brute_force_exact(ch):
 
 def test_streamed_output_is_the_cached_one(monkeypatch):
     """Large outputs are stored non-temporally into a cache-line aligned array: same colours."""
-    import runtime_cl.polygon_uniform as pu
+    import runtime_cl.polygon.uniform as pu
 
     sp = PolygonSplatter(*shape("hexagon"))
     img = scene(np.random.default_rng(5), 1100, 1000, 3)     # 13 MB of output: streamed

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from capsule import capsule_database
 
-from runtime_cl.database import DatabaseBuilder
+from runtime_cl.psf.database import DatabaseBuilder
 from runtime_cl.errors import InputError
-from runtime_cl.psf_coords import COORDINATE_MAPS, needs_motion, psf_coords
-from runtime_cl.psf_space import NestedGrid
-from runtime_cl.render import Renderer
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.coords.maps import COORDINATE_MAPS, needs_motion, psf_coords
+from runtime_cl.psf.grid import NestedGrid
+from runtime_cl.spreadlets.renderer import Renderer
+from runtime_cl.camera.thin_lens import ThinLens
 
 CAMERA = ThinLens(focal_length_mm=50.0, f_number=2.0, focus_distance_m=2.0)
 STATS = {"sparsity": 1.0, "ssim": 1.0, "l1": 0.0}

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 
 from lab.psf_tracing.space import NestedGrid, boxes
 from runtime_cl.errors import InputError
-from runtime_cl.psf_space import triangular, triangular_root
+from runtime_cl.psf.grid import triangular, triangular_root
 
 GRIDS = [
     NestedGrid(9, (1.0, 1.0), ((0, 1), (0, 1)), ("a", "b")),

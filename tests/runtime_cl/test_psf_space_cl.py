@@ -1,4 +1,4 @@
-"""kernels/psf_space.cl against NestedGrid.index (numpy) on random coordinates.
+"""kernels/psf/psf_space.cl against NestedGrid.index (numpy) on random coordinates.
 
 Every cell boundary lies at an integer grid coordinate g = n s^(1/beta). The kernel decides
 floor(g) by comparing s with thresholds (k/n)^beta instead of evaluating pow, so it may differ
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from runtime_cl.errors import InputError
-from runtime_cl.psf_space import NestedGrid
-from runtime_cl.psf_space_cl import PsfIndexKernel, check_coords
+from runtime_cl.psf.grid import NestedGrid
+from runtime_cl.psf.grid_cl import PsfIndexKernel, check_coords
 
 GRIDS = [
     NestedGrid.for_samples(100, (2.0,), ((0, 30),), ("coc",)),

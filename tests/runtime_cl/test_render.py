@@ -4,11 +4,11 @@ import pytest
 from cl_reference import random_database
 
 from runtime_cl.errors import InputError
-from runtime_cl.integrate import laplacian5
-from runtime_cl.psf_coords import psf_coords, thin_lens_coords
-from runtime_cl.render import Renderer
-from runtime_cl.synthetic import disc_database, disc_psf
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.integrate.poisson import laplacian5
+from runtime_cl.coords.maps import psf_coords, thin_lens_coords
+from runtime_cl.spreadlets.renderer import Renderer
+from runtime_cl.psf.synthetic import disc_database, disc_psf
+from runtime_cl.camera.thin_lens import ThinLens
 
 
 @pytest.fixture(scope="module")

@@ -14,8 +14,8 @@ from rotation_reference import (turned_filter_image, turned_spreadlet_canvas, tu
 from scipy import ndimage
 
 from runtime_cl.errors import InputError
-from runtime_cl.render import Renderer
-from runtime_cl.splat import TileSplatter, canvas_shape
+from runtime_cl.spreadlets.renderer import Renderer
+from runtime_cl.spreadlets.splat import TileSplatter, canvas_shape
 
 METHODS = ("spreadlets", "splat", "filter")
 

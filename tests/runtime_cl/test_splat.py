@@ -12,9 +12,9 @@ import pytest
 from cl_reference import (filter_image, laplacian_database, random_database, spreadlet_canvases,
                           splat_image)
 
-from runtime_cl.device_db import DeviceDatabase, dense_row_spans, row_major_order
-from runtime_cl.render import Renderer
-from runtime_cl.splat import TileSplatter, canvas_shape, default_tile
+from runtime_cl.psf.upload import DeviceDatabase, dense_row_spans, row_major_order
+from runtime_cl.spreadlets.renderer import Renderer
+from runtime_cl.spreadlets.splat import TileSplatter, canvas_shape, default_tile
 
 
 def scene(rng, db, h, w, cc, zero_fraction=0.2):

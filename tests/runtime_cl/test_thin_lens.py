@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from runtime_cl.errors import InputError
-from runtime_cl.thin_lens import ThinLens
+from runtime_cl.camera.thin_lens import ThinLens
 
 LENS = ThinLens(focal_length_mm=50, f_number=2.0, focus_distance_m=3.0, sensor_width_mm=36)
 

@@ -24,7 +24,7 @@ runtime must do with them:
     image centre (counter-clockwise from image +x, y up) is drawn with the PSF rotated by phi.
 
 Rotations turn the PSF counter-clockwise as the image is viewed; the runtime
-(:mod:`runtime_cl.psf_coords`, ``Renderer.render(angle=...)``) takes the angle in radians.
+(:mod:`runtime_cl.coords.maps`, ``Renderer.render(angle=...)``) takes the angle in radians.
 """
 from __future__ import annotations
 

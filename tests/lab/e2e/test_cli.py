@@ -6,7 +6,7 @@ import pytest
 
 from lab.cli import build_parser, main
 from lab.exr_io import LabelledImage, read_labelled, read_rgb, write_labelled
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 TINY = Path(__file__).resolve().parents[3] / "scenes" / "tiny.toml"
 

@@ -7,7 +7,7 @@ from drjit.llvm import Array2f, Float, Float64
 
 from lab.errors import UserError
 from lab.optics.thin_lens import ThinLens
-from runtime_cl.thin_lens import ThinLens as NumpyThinLens
+from runtime_cl.camera.thin_lens import ThinLens as NumpyThinLens
 
 LENSES = [ThinLens(50, 2.0, 3.0, 36), ThinLens(35, 1.4, 0.6, 24), ThinLens(200, 5.6, 50.0, 36)]
 W = 1920

@@ -2,7 +2,7 @@
 import pytest
 
 from precompute_helpers import small_cells, small_model
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 
 @pytest.fixture

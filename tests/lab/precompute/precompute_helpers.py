@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
-from runtime_cl.database import ARRAYS, SpreadletDatabase
+from runtime_cl.psf.database import ARRAYS, SpreadletDatabase
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -8,10 +8,10 @@ from PIL import Image
 
 from lab.report.atlas import GAP, LEFT, TILE, TITLE, caption_height, render_atlas, select_cells, write_atlas
 from lab.report.table1 import table1_markdown, table1_row
-from runtime_cl.database import DatabaseBuilder
-from runtime_cl.integrate import laplacian5
-from runtime_cl.psf_space import NestedGrid
-from runtime_cl.synthetic import disc_psf
+from runtime_cl.psf.database import DatabaseBuilder
+from runtime_cl.integrate.poisson import laplacian5
+from runtime_cl.psf.grid import NestedGrid
+from runtime_cl.psf.synthetic import disc_psf
 
 
 def test_atlas_and_table_of_a_traced_database(reference, tmp_path):

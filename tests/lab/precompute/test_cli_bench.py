@@ -6,7 +6,7 @@ import pytest
 
 from lab.cli import main
 from lab.errors import UserError
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 from precompute_helpers import SMALL, assert_same_database, cli_sets
 

@@ -2,15 +2,14 @@
 import tracemalloc
 
 from lab.precompute import content_hash, precompute, source_digest
-from lab.precompute.naming import SOURCES, ROOT
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 from precompute_helpers import assert_same_database, small_model
 
 
 def test_hash_covers_model_config_and_code():
     model = small_model()
-    code = source_digest()
+    code = source_digest("simple_lens")
     h = content_hash("simple_lens", model.config, code)
     assert h == content_hash("simple_lens", small_model().config, code)
     assert len(h) == 12 and int(h, 16) >= 0
@@ -18,12 +17,6 @@ def test_hash_covers_model_config_and_code():
     assert h != content_hash("simple_lens", small_model(density=0.5).config, code)
     assert h != content_hash("other_model", model.config, code)
     assert h != content_hash("simple_lens", model.config, "0" * 64)
-
-
-def test_hashed_sources_exist_and_executors_are_not_among_them():
-    for rel in SOURCES:
-        assert (ROOT / rel).exists(), rel
-    assert "lab/precompute/executors.py" not in SOURCES  # more workers, same database
 
 
 def test_unchanged_config_is_reused_and_a_changed_one_rebuilt(reference, cache):

@@ -6,7 +6,7 @@ from lab.precompute import precompute
 from lab.psf_tracing.models import load_model, model_names
 from lab.report.atlas import render_atlas
 from lab.report.table1 import table1_row
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 from precompute_helpers import SMALL
 

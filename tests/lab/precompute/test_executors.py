@@ -10,7 +10,7 @@ from lab.errors import UserError
 from lab.precompute import precompute, source_digest
 from lab.precompute.cell import CellJob, run_cell
 from lab.precompute.executors import check_scheduler, dask_threads
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 from precompute_helpers import assert_same_database, small_cells, small_model
 
@@ -67,5 +67,5 @@ def test_worker_with_other_code_refuses_the_task():
     job = CellJob(model.name, model.config, "0" * 64)
     with pytest.raises(UserError, match=r"code \(digest .*differs from the job's \(000000000000\)"):
         run_cell(job, 0)
-    shard = run_cell(CellJob(model.name, model.config, source_digest()), 0)
+    shard = run_cell(CellJob(model.name, model.config, source_digest(model.name)), 0)
     assert int(shard["cell"]) == 0 and shard["dense"].shape[2] == 1

@@ -10,7 +10,7 @@ import pytest
 from lab.precompute import build_cell, content_hash, precompute
 from lab.precompute.naming import database_path, shard_dir
 from lab.precompute.shards import read_shard, shard_path, write_shard
-from runtime_cl.database import SpreadletDatabase
+from runtime_cl.psf.database import SpreadletDatabase
 
 from precompute_helpers import ROOT, assert_same_database, small_model, cli_sets
 

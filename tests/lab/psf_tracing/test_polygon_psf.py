@@ -72,7 +72,7 @@ def test_symmetry_tags():
 def test_every_model_lists_documented_symmetries_the_runtime_maps():
     from lab.psf_tracing.models import get_model, model_names
     from lab.psf_tracing.models.common import SYMMETRY_TAGS
-    from runtime_cl.psf_coords import COORDINATE_MAPS
+    from runtime_cl.coords.maps import COORDINATE_MAPS
 
     for name in model_names():
         tags = get_model(name).symmetries

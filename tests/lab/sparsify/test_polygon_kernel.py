@@ -1,4 +1,4 @@
-"""Directional kernel differences (runtime_cl.polygon_kernel) against brute-force rasterisation."""
+"""Directional kernel differences (runtime_cl.polygon.kernel) against brute-force rasterisation."""
 import math
 
 import numpy as np
@@ -9,7 +9,7 @@ from scipy.signal import convolve2d
 from runtime_cl.errors import InputError
 from lab.sparsify.polygon import direction_set, rectify
 from lab.sparsify.polygon_shapes import SHAPES, shape
-from runtime_cl.polygon_kernel import (differenced_kernel, directional_prefix_sum,
+from runtime_cl.polygon.kernel import (differenced_kernel, directional_prefix_sum,
                                        rasterize_polygon, reconstruct, scale_polygon)
 
 T = math.tan(math.pi / 8)

@@ -7,7 +7,7 @@ import pytest
 from lab.errors import UserError
 from lab.sparsify.polygon_table import (METHODS, PAPER_TABLE1, TABLE1_SHAPES, format_table1,
                                         nonzero_counts, table1, table1_polygon)
-from runtime_cl.polygon_kernel import scale_polygon
+from runtime_cl.polygon.kernel import scale_polygon
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@ import numpy as np
 from lab.sparsify import analytic
 from lab.sparsify.cost import BoxCost
 from lab.sparsify.laplacian import Box, importance, psf_laplacian, working_box
-from runtime_cl.integrate import fft_friendly, poisson_integrate
+from runtime_cl.integrate.poisson import fft_friendly, poisson_integrate
 
 
 def test_laplacian_of_constant_and_linear_regions_is_exactly_zero():

@@ -5,7 +5,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from runtime_cl.api import methods as runtime_methods
 from runtime_cl.errors import InputError
+
+from .bench import BENCHES
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_SCENE = ROOT / "scenes" / "demo.toml"
@@ -119,10 +122,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", type=Path, help="labelled-pixel EXR: R,G,B,A,Z and the splatlab.camera header")
     p.add_argument("--db", type=Path, help="spreadlet database (splatlab precompute); needed by every "
                    "method but polygon")
-    p.add_argument("--method", choices=("spreadlets", "splat", "filter", "polygon"), default="spreadlets",
-                   help="spreadlets: LSR18 Laplacian splatting; splat: dense PSF splatting; "
-                        "filter: gathering with the PSF; polygon: exact flat polygonal bokeh (MHU21) "
-                        "(default: spreadlets)")
+    methods = runtime_methods()
+    p.add_argument("--method", choices=list(methods), default="spreadlets",
+                   help="; ".join(f"{name}: {summary}" for name, summary in methods.items())
+                        + " (default: spreadlets)")
     p.add_argument("--aperture", metavar="NAME",
                    help="polygon: built-in shape (hexagon, octagon, dodecagon, hexadecagon, heart, "
                         "clover, star; default: the camera header's iris, else hexagon)")
@@ -144,14 +147,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")
 
     p = sub.add_parser("bench", description=DESCRIPTIONS["bench"], help="benchmarks; JSON under reports/bench/")
-    p.add_argument("what", choices=("runtime", "precompute", "polygon", "rotation", "all"),
-                   help="runtime: spreadlets vs Splat vs Filter and kernel throughput at 1024^2 on the "
-                        "demo scene; precompute: M rays/s per PSF model, and (unless --no-build) the "
-                        "wall time to build each model's database at default settings, LSR18 Table 1 "
-                        "and a PSF atlas per model; polygon: MHU21 exact polygonal bokeh (time vs "
-                        "radius, against brute force / Laplacian / dx dy, uniform blur vs FFT; "
-                        "not part of all); rotation: the cost of per-pixel PSF rotation, spreadlets "
-                        "with a constant and a per-pixel angle over without (512^2; not part of all)")
+    p.add_argument("what", choices=list(BENCHES),
+                   help="runtime: every runtime pass of the scene's plan (default the demo: spreadlets vs "
+                        "Splat vs Filter at 1024^2), times, SSIM and kernel throughput; precompute: M rays/s "
+                        "per PSF model, and (unless --no-build) the wall time to build each model's "
+                        "database at default settings, LSR18 Table 1 and a PSF atlas per model; polygon: "
+                        "MHU21 exact polygonal bokeh (time vs radius, against brute force / Laplacian / "
+                        "dx dy, uniform blur vs FFT; not part of all); rotation: the cost of per-pixel PSF "
+                        "rotation, spreadlets with a constant and a per-pixel angle over without (512^2; "
+                        "not part of all); all: precompute and runtime")
     p.add_argument("--quick", action="store_true",
                    help="polygon: small sizes only (a smoke run in seconds)")
     p.add_argument("--scene", type=Path, default=DEMO_SCENE, help="scene to benchmark (default: demo)")

@@ -93,59 +93,74 @@ def cmd_reference(args) -> int:
     return 0
 
 
-def _render_polygon(args) -> int:
-    from .config import from_table
-    from .exr_io import write_rgb
-    from .optics.iris import Iris
-    from .pipeline import read_input
-    from .polygon_aperture import iris_aperture, polygon_aperture, render_polygon
+def _render_aperture(args, image):
+    """The rectified polygon a pass that draws the aperture gets: ``--aperture NAME``, else the
+    camera header's iris, else the hexagon."""
+    from .polygon_aperture import polygon_aperture
+    from .runtime_passes import camera_aperture
+
+    if args.aperture is None:
+        iris = camera_aperture(image, f"{args.input} camera", args.directions, args.edges)
+        if iris is not None:
+            return iris
+    return polygon_aperture(args.aperture or "hexagon", args.directions, args.edges)
+
+
+def _check_render_options(args, cls) -> None:
+    from runtime_cl.passes.registry import get_pass, pass_names
 
     if args.layers is not None and args.layers < 1:
         raise UserError(f"--layers {args.layers}: the number of depth layers must be >= 1 (1 splats "
                         "everything into one layer, without occlusion), e.g. --layers 8")
-    image = read_input(args.input, args.camera)
-    if args.aperture is None and "aperture" in image.camera:   # the camera's own iris
-        iris = from_table(Iris, image.camera["aperture"], f"{args.input} camera aperture")
-        aperture = iris_aperture(iris, args.directions, args.edges)
-    else:
-        aperture = polygon_aperture(args.aperture or "hexagon", args.directions, args.edges)
-    layered = args.layers is not None and bool(image.layers(str(args.input)))
-    rendered, info = render_polygon(image, aperture, args.layers, layered_input=layered)
-    write_rgb(args.out, rendered)
-    layers = "" if args.layers is None else \
-        f", {len(info['layers'])} of {args.layers} depth layers used ({'layered' if layered else 'flat'} input)"
-    print(f"{args.out}: polygon ({aperture.name}, {aperture.edges} edges, D m={aperture.directions_m}), "
-          f"radius <= {info['max_radius_px']:.1f} px{layers}, {info['kernel_ms']:.1f} ms kernels "
-          f"(+{info['table_s']:.2f} s radius table, {info['rectify_s']:.2f} s rectification)")
-    return 0
+    if args.layers is not None and not cls.layered:
+        layered = " / ".join(n for n in pass_names() if get_pass(n).layered)
+        raise UserError(f"--layers {args.layers}: depth layers are for --method {layered}; drop --layers "
+                        f"with --method {args.method}")
+    if cls.database_models != () and args.db is None:
+        free = " / ".join(n for n in pass_names() if get_pass(n).database_models == ())
+        raise UserError(f"--db: --method {args.method} needs a spreadlet database (splatlab precompute "
+                        f"MODEL --out FILE); only --method {free} work without one")
+    if cls.database_models == () and args.db is not None:
+        raise UserError(f"--db {args.db}: --method {args.method} uses no PSF database; drop --db")
+    if not cls.draws_aperture and args.aperture is not None:
+        raise UserError(f"--aperture {args.aperture}: --method {args.method} draws its database's PSFs; "
+                        "--aperture is for a method that draws the aperture (--method polygon)")
 
 
 def cmd_render(args) -> int:
-    if args.method == "polygon":
-        return _render_polygon(args)
-    if args.layers is not None:
-        raise UserError(f"--layers {args.layers}: depth layers are for --method polygon; drop --layers "
-                        f"with --method {args.method}")
-    if args.db is None:
-        raise UserError(f"--db: --method {args.method} needs a spreadlet database (splatlab precompute "
-                        "MODEL --out FILE); only --method polygon works without one")
+    from runtime_cl.passes.registry import get_pass, run_pass
     from runtime_cl.psf.database import SpreadletDatabase
-    from runtime_cl.coords.maps import needs_motion, psf_coords
-    from runtime_cl.spreadlets.renderer import Renderer
-    from runtime_cl.camera.thin_lens import ThinLens
 
     from .exr_io import write_rgb
-    from .pipeline import read_input, read_motion
+    from .pipeline import read_input
+    from .runtime_passes import aperture_info, frame_of, runtime_camera
 
+    cls = get_pass(args.method)
+    _check_render_options(args, cls)
     image = read_input(args.input, args.camera)
-    db = SpreadletDatabase.load(args.db)
-    camera = ThinLens.from_json(image.camera, f"{args.input} camera")
-    motion = read_motion(image, args.input, db.model) if needs_motion(db.model) else None
-    pc = psf_coords(camera, image.depth, db, motion)
-    rendered, timing = Renderer(db).render(image.rgb, pc.coords, args.method, angle=pc.angle)
+    db = None if args.db is None else SpreadletDatabase.load(args.db)
+    options, said = {}, ""
+    if args.layers is not None:
+        options["layers"] = args.layers
+        options["layered_input"] = cls.layered and bool(image.layers(str(args.input)))
+    if cls.draws_aperture:
+        aperture = _render_aperture(args, image)
+        options["aperture"] = aperture.splatter
+        a = aperture_info(aperture)
+        said = (f" ({aperture.name}, {aperture.edges} edges, D m={aperture.directions_m}; "
+                f"+{a['table_s']:.2f} s radius table, {a['rectify_s']:.2f} s rectification)")
+    frame = frame_of(image, str(args.input), db, options.get("layered_input", False))
+    rendered, timing = run_pass(args.method, frame, runtime_camera(image, f"{args.input} camera"), db, **options)
     write_rgb(args.out, rendered[..., :3])
-    print(f"{args.out}: {args.method}, {timing['kernel_ms']:.1f} ms kernels + "
-          f"{timing['integrate_ms']:.1f} ms integration (+{timing['compile_ms']:.0f} ms kernel builds)")
+    c = timing.counts
+    if "max_radius_px" in c:
+        said += f", radius <= {c['max_radius_px']:.1f} px"
+    if "used_layers" in c:
+        said += (f", {c['used_layers']} of {c['depth_layers']} depth layers used "
+                 f"({'layered' if options['layered_input'] else 'flat'} input)")
+    print(f"{args.out}: {args.method}{said}: {timing.time_ms:.1f} ms ({timing.device_ms:.1f} ms device, "
+          f"{timing.transfer_ms:.1f} ms transfers, {timing.host_ms:.1f} ms host; +{timing.compile_ms:.0f} ms "
+          "set-up and kernel builds)")
     return 0
 
 
@@ -174,15 +189,10 @@ def cmd_demo(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    if args.what == "polygon":
-        from .bench_polygon import bench_polygon
-
-        print(f"benchmark: {bench_polygon(args.repeats, quick=args.quick)}")
-        return 0
     from .bench import run_bench
 
     for path in run_bench(args.what, args.scene, args.repeats, models=args.models,
-                          build=not args.no_build, workers=args.workers):
+                          build=not args.no_build, workers=args.workers, quick=args.quick):
         print(f"benchmark: {path}")
     return 0
 

@@ -13,10 +13,6 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-import numpy as np
-
-from runtime_cl.psf.database import SpreadletDatabase
-
 from .cache_key import code_digest
 from .errors import UserError
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
@@ -26,8 +22,6 @@ from .scene import Scene, load_scene
 
 # What renders the input and the reference (their imports, lab.optics included, are found, not listed).
 RENDER_ROOTS = ("lab.reference.render", "lab.reference.labelled")
-TIMED_RUNS = 3
-DEPTH_LAYERS = 8   # global depth layers of the polygon passes (LSR18 section 6)
 
 
 def render_key(scene: Scene, packages=None) -> str:
@@ -106,84 +100,6 @@ def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool 
     return results
 
 
-def run_method(renderer, image: LabelledImage, coords, method: str, runs: int = TIMED_RUNS) -> tuple:
-    """Warm up once (kernel builds), then time ``runs`` renders; returns (image, timing summary).
-
-    ``coords``: the :class:`runtime_cl.coords.maps.PsfCoords` of the image (coordinates, angles)."""
-    first, warm = renderer.render(image.rgb, coords.coords, method, angle=coords.angle)
-    samples = [renderer.render(image.rgb, coords.coords, method, angle=coords.angle)[1] for _ in range(runs)]
-
-    def median(key):
-        return float(np.median([s[key] for s in samples]))
-
-    timing = {"time_ms": median("kernel_ms") + median("integrate_ms") + median("upload_ms")
-              + median("download_ms"),
-              "kernel_ms": median("kernel_ms"), "integrate_ms": median("integrate_ms"),
-              "transfer_ms": median("upload_ms") + median("download_ms"),
-              "compile_ms": warm["compile_ms"], "wall_ms": median("total_ms"), "runs": runs,
-              "counts": {k: int(samples[0][k]) for k in ("pixels", "spreadlets", "dense_pixels")}}
-    return first, timing
-
-
-def run_polygon(plan: Plan, image: LabelledImage, runs: int = TIMED_RUNS, progress: bool = True) -> dict:
-    """The polygon passes (``polygon``, ``polygon_layers``, ``polygon_layered_input``) with the
-    camera header's iris: name -> (image, timing). Each is warmed up once (kernel builds, radius
-    table), then timed ``runs`` times; ``time_ms`` is the median wall time of a render call
-    (uploads, kernels, downloads and the layer compositing on the host)."""
-    from runtime_cl.camera.thin_lens import ThinLens
-
-    from tqdm import tqdm
-
-    from .config import from_table
-    from .optics.iris import Iris
-    from .polygon_aperture import iris_aperture, render_polygon
-
-    ThinLens.from_json(image.camera, "input camera header")
-    aperture = iris_aperture(from_table(Iris, image.camera["aperture"], "input camera header aperture"))
-    settings = {"polygon": {}, "polygon_layers": {"layers": DEPTH_LAYERS},
-                "polygon_layered_input": {"layers": DEPTH_LAYERS, "layered_input": True}}
-    out = {}
-    for name in tqdm(plan.runtime_passes, desc="runtime", unit="method", disable=not progress):
-        first, warm = render_polygon(image, aperture, **settings[name])
-        samples = [render_polygon(image, aperture, **settings[name])[1] for _ in range(runs)]
-        wall = float(np.median([x["wall_ms"] for x in samples]))
-        timing = {"time_ms": wall, "kernel_ms": float(np.median([x["kernel_ms"] for x in samples])),
-                  "compile_ms": max(0.0, warm["wall_ms"] - wall), "runs": runs,
-                  "aperture": {"edges": aperture.edges, "rectify_s": round(aperture.rectify_s, 3),
-                               "table_s": round(warm["table_s"], 3)},
-                  "counts": {"pixels": image.width * image.height,
-                             "max_radius_px": round(warm["max_radius_px"], 2)}}
-        if "layers" in settings[name]:
-            timing["counts"].update(depth_layers=DEPTH_LAYERS, used_layers=len(warm["layers"]),
-                                    input_layers=len(image.layers()) if name.endswith("input") else 1)
-        out[name] = (first, timing)
-    return out
-
-
-def run_runtime(plan: Plan, image: LabelledImage, databases: dict, runs: int = TIMED_RUNS,
-                progress: bool = True) -> dict:
-    """Every runtime pass of the plan on ``image``: name -> (image, timing)."""
-    if plan.runtime_passes == ("identity",):
-        return {"identity": (image.rgb, {"time_ms": 0.0, "kernel_ms": 0.0, "integrate_ms": 0.0,
-                                         "transfer_ms": 0.0, "compile_ms": 0.0, "runs": 0})}
-    if plan.runtime_passes[0] == "polygon":
-        return run_polygon(plan, image, runs, progress)
-    from runtime_cl.coords.maps import psf_coords
-    from runtime_cl.spreadlets.renderer import Renderer
-    from runtime_cl.camera.thin_lens import ThinLens
-
-    from tqdm import tqdm
-
-    db = SpreadletDatabase.load(databases["simple_lens"].path, expect_model="simple_lens")
-    camera = ThinLens.from_json(image.camera, "input camera header")
-    coords = psf_coords(camera, image.depth, db)
-    renderer = Renderer(db)
-    out = {}
-    for method in tqdm(plan.runtime_passes, desc="runtime", unit="method", disable=not progress):
-        out[method] = run_method(renderer, image, coords, method, runs)
-    return out
-
-
 def load_scene_and_plan(path) -> tuple:
     scene = load_scene(path)
     return scene, make_plan(scene)
@@ -207,6 +123,8 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -
     t0 = time.perf_counter()
     image, reference, ref_info = inputs_and_reference(scene, plan, progress)
     databases = build_databases(scene, plan, image, progress=progress)
+    from .runtime_passes import run_runtime
+
     results = run_runtime(plan, image, databases, progress=progress)
     report = assemble_report(scene, plan, image, reference, ref_info, databases, results, out_dir,
                              baseline_report)
@@ -216,16 +134,6 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -
 
     write_report(report, out_dir)
     return report
-
-
-def read_motion(image: LabelledImage, path, model: str) -> np.ndarray:
-    """The labelled image's per-pixel motion (H, W, 2): channels ``motion.X``, ``motion.Y`` in pixels
-    over the shutter, X right, Y up (what a ``model`` database needs)."""
-    missing = [c for c in ("motion.X", "motion.Y") if c not in image.extra]
-    if missing:
-        raise UserError(f"{path}: channel(s) {missing} missing; a {model!r} database needs per-pixel motion "
-                        "(motion.X, motion.Y: pixels over the shutter, Y up); write them into the EXR")
-    return np.stack([image.extra["motion.X"], image.extra["motion.Y"]], axis=-1)
 
 
 def read_input(path, camera_file=None) -> LabelledImage:

@@ -1,12 +1,11 @@
-"""Polygonal bokeh for ``splatlab render --method polygon`` and ``splatlab bench polygon``.
+"""Rectified apertures for the runtime's polygon pass (``splatlab render --method polygon``,
+reports, ``splatlab bench polygon``).
 
 A built-in aperture shape (:mod:`lab.sparsify.polygon_shapes`) or a camera's iris
 (:class:`lab.optics.iris.Iris`, ``[camera] aperture``) is rectified once per run (MHU21 section 4,
 :func:`lab.sparsify.polygon.rectify`) and handed to the runtime's exact splatter
-(:class:`runtime_cl.polygon.splat.PolygonSplatter`). The radius of every pixel is its thin-lens
-circle of confusion, ``|CoC|`` in pixels, from the EXR's depth and camera header. With depth
-layers (:mod:`runtime_cl.layers.composite`) the pixels are splatted per layer and composited, from
-the flat image or from the EXR's ``layerN.*`` channels.
+(:class:`runtime_cl.polygon.splat.PolygonSplatter`), which :class:`runtime_cl.passes.polygon.
+PolygonPass` draws at every pixel's thin-lens ``|CoC|``.
 
 The kernel is the iris as it images behind the focus plane; in front of it the PSF is rotated
 by 180 degrees, which the runtime does not do: exact for point-symmetric irises (even blade
@@ -17,12 +16,10 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-import numpy as np
 
 from .errors import UserError
 
-__all__ = ["PolygonAperture", "polygon_aperture", "iris_aperture", "default_edges", "coc_radius",
-           "render_polygon"]
+__all__ = ["PolygonAperture", "polygon_aperture", "iris_aperture", "default_edges"]
 
 
 def default_edges(name: str) -> int:
@@ -106,57 +103,3 @@ def _rectified(name, outline, directions_m, edges, device) -> PolygonAperture:
     unit, dirs = rectify(outline, direction_set(directions_m), edges).unit()
     took = time.perf_counter() - start
     return PolygonAperture(name, directions_m, edges, PolygonSplatter(unit, dirs, device=device), took)
-
-
-def coc_radius(image, depth=None) -> np.ndarray:
-    """``|CoC|`` in pixels per pixel of a labelled image (or of ``depth``, metres, in it)."""
-    return np.abs(signed_coc(image, depth)).astype(np.float32)
-
-
-def signed_coc(image, depth=None) -> np.ndarray:
-    """Signed CoC in pixels (negative in front of the focus plane) from the thin-lens header."""
-    from runtime_cl.camera.thin_lens import ThinLens
-
-    camera = ThinLens.from_json(image.camera, "input camera")
-    return camera.coc_radius_px(image.depth if depth is None else depth, image.width).astype(np.float32)
-
-
-def render_polygon(image, aperture: PolygonAperture, layers: int | None = None,
-                   layered_input: bool = False):
-    """Depth of field of a labelled image with the aperture's polygon: ``(rgb, info)``.
-
-    Parameters
-    ----------
-    image : lab.exr_io.LabelledImage
-    aperture : PolygonAperture
-    layers : int, optional
-        Global depth layers (:func:`runtime_cl.layers.composite.render_layers`); ``None`` splats
-        the flat image in one pass without occlusion (MHU21 as is).
-    layered_input : bool, default False
-        With ``layers``: splat the image's ``layerN.*`` layers instead of its flat R, G, B, A, Z.
-
-    Returns
-    -------
-    rgb : ndarray (H, W, 3) float32
-    info : dict
-        Kernel times, ``max_radius_px``, the aperture's rectification and table times, and for
-        layers the runtime's per-layer figures.
-    """
-    from runtime_cl.layers.composite import PixelLayer, render_layers
-
-    if layers is None:
-        if layered_input:
-            raise UserError("layered input needs depth layers: pass --layers N (N >= 1)")
-        radius = coc_radius(image)
-        rgb, info = aperture.splatter.render(image.rgb, radius)
-    else:
-        source = image.layers() if layered_input else [image]
-        if not source:
-            raise UserError("the input has no layerN.* channels; render it with layers (a scene whose "
-                            "[[shapes]] have a layer key) or splat the flat image")
-        pixels = [PixelLayer(x.rgb, x.alpha, signed_coc(image, x.depth)) for x in source]
-        rgb, info = render_layers(aperture.splatter, pixels, layers)
-        radius = np.float32([0.0] + [x["max_radius_px"] for x in info["layers"]])
-    info = dict(info, rectify_s=aperture.rectify_s, table_s=aperture.splatter.table.build_seconds,
-                max_radius_px=float(radius.max()), entries=len(aperture.splatter.table))
-    return rgb, info

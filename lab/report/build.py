@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from runtime_cl.psf.database import SpreadletDatabase
+from runtime_cl.timing import COLUMNS
 
 from .images import save_heatmap, save_render
 from .machine import machine_info
@@ -61,8 +62,7 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
         "tonemap": TONEMAP,
         "metrics": "SSIM: skimage structural_similarity, gaussian sigma 1.5, data_range 1, channel_axis 2; "
                    "PSNR data_range 1; both on the tonemap",
-        "timing": "median of timed runs after a warm-up: OpenCL event profiling for kernels, wall clock "
-                  "for the FFT integration and transfers; kernel compile time reported separately",
+        "timing": dict(COLUMNS, runs="timed calls after one warm-up call; every figure is their median"),
         "images": {"reference": "reference.png", "input (pinhole)": "input.png"},
         "plots": plots,
         "methods": methods,

@@ -47,11 +47,15 @@ def render_html(report: dict) -> str:
         items = "".join(f"<li>{html.escape(r)}</li>" for r in report["regressions"])
         parts.append(f"<h2 class='bad'>Regressions against the baseline</h2><ul class='bad'>{items}</ul>")
     methods = report["methods"]
-    rows = [[name, m["time_ms"], m.get("kernel_ms", ""), m.get("integrate_ms", ""), m.get("compile_ms", ""),
-             m["ssim"], m["psnr"]] for name, m in methods.items()]
+    columns = ("time_ms", "device_ms", "transfer_ms", "host_ms", "compile_ms", "prepare_ms")
+    rows = [[name] + [m[c] for c in columns] + [m["ssim"], m["psnr"]] for name, m in methods.items()]
     parts.append("<h2>Methods</h2>" + _table(
-        ["method", "time [ms]", "kernels [ms]", "integration [ms]", "compile [ms] (excluded)", "SSIM", "PSNR [dB]"],
-        rows))
+        ["method", "time [ms]", "device [ms]", "transfers [ms]", "host [ms]", "set-up [ms] (excluded)",
+         "prepare [ms] (excluded)", "SSIM", "PSNR [dB]"], rows))
+    timing = report.get("timing", {})
+    if isinstance(timing, dict):
+        items = "".join(f"<li><code>{html.escape(k)}</code>: {html.escape(v)}</li>" for k, v in timing.items())
+        parts.append(f"<p>Timing columns:</p><ul>{items}</ul>")
     if report.get("plots"):
         parts.append("<div class='grid'>" + "".join(_figure(p, c) for c, p in report["plots"].items()) + "</div>")
     figs = [_figure(src, name) for name, src in report["images"].items()]

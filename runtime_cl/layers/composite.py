@@ -1,9 +1,12 @@
-"""Occlusion for exact polygonal bokeh: global depth layers (LSR18 section 6, "Layering Details").
+"""Occlusion for any splatting pass: global depth layers (LSR18 section 6, "Layering Details").
 
-MHU21's kernel differences add every pixel's polygon linearly, so a blurred background bleeds
-over an in-focus object in front of it and a blurred foreground shows nothing of what lies
-behind it (MHU21 section 7 names occlusion as their limitation). As LSR18 do, the pixels are
-binned into global depth layers, each layer is splatted on its own, and the layers are composited.
+Splatting adds every pixel's PSF linearly, so a blurred background bleeds over an in-focus
+object in front of it and a blurred foreground shows nothing of what lies behind it (MHU21
+section 7 names occlusion as their limitation). As LSR18 do, the pixels are binned into global
+depth layers, each layer is splatted on its own, and the layers are composited. What splats a
+layer is a :class:`LayerSplatter`: any pass that can splat a masked image with per-pixel PSFs
+and blur one channel uniformly (exact polygons: :class:`runtime_cl.polygon.layers.
+PolygonLayerSplatter`).
 
 Binning. Layers are bins of equal width in the signed circle of confusion (``coc``, pixels:
 negative in front of the focus plane), which is affine in inverse depth: constant parallax
@@ -11,9 +14,9 @@ negative in front of the focus plane), which is affine in inverse depth: constan
 and zero alpha is culled); layer 0 is the nearest. An empty layer costs nothing.
 
 Per layer. Every pixel of the layer splats its premultiplied radiance and its coverage (alpha)
-as one 4-channel image with the polygon at ``|coc|`` (:class:`~runtime_cl.polygon.splat.
-PolygonSplatter`, exact fixed point); the resolved layer is ``(C, A)``. Within a layer, splats
-add (LSR18: "splatting performs linear addition within a layer").
+as one 4-channel image with the PSF of its signed CoC (polygons: the polygon at ``|coc|``,
+exact fixed point); the resolved layer is ``(C, A)``. Within a layer, splats add (LSR18:
+"splatting performs linear addition within a layer").
 
 Re-weighting. Where a single image is the input, a layer has holes wherever nearer pixels hid
 it; blurred, the hole darkens the layer around the nearer object's outline. Lee et al. [2008]
@@ -27,16 +30,16 @@ fill fades out smoothly, and a layer with nothing in front of it (or with its hi
 supplied, as in layered input) is left unchanged, ``g = 1``. What no splat of the layer
 reaches stays unknown (transparent): a single image cannot show what a wide foreground hides.
 
-Opacity. MHU21's integer polygons change shape in steps as the radius grows, so where
-neighbouring pixels of one surface use different polygons their splats do not sum to 1 (rings
-of ``A`` a little below or above 1); through such a ring the (often far brighter) layers behind
+Opacity. Discrete PSFs change shape in steps as the radius grows (MHU21's integer polygons,
+a database's grid cells), so where neighbouring pixels of one surface use different PSFs their
+splats do not sum to 1 (rings of ``A`` a little below or above 1); through such a ring the (often far brighter) layers behind
 would shine. A layer therefore hides what is behind it by at least ``E / k``, its own pixels'
 coverage blurred by the single radius ``rho`` (no steps) relative to the known sites:
 ``alpha = min(1, max(g A, E / max(k, MIN_KNOWN)))``.
 
 Compositing. Back to front with "over" on premultiplied colours:
-``out = g C + (1 - alpha) out``. With one layer the result is the plain splat of
-:meth:`PolygonSplatter.render`; a layer with no live pixels changes nothing.
+``out = g C + (1 - alpha) out``. With one layer the result is the layer's plain splat; a layer
+with no live pixels changes nothing.
 
 Layered input (LDI-like: e.g. a foreground layer with alpha and the background rendered without
 the foreground) is a list of :class:`PixelLayer`; all their pixels go into the same global
@@ -46,16 +49,32 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from runtime_cl.errors import InputError
 
-__all__ = ["PixelLayer", "layer_edges", "render_layers"]
+__all__ = ["LayerSplatter", "PixelLayer", "layer_edges", "render_layers"]
 
 # Least known fraction a hole fill trusts: with less known around it fades out instead of
 # blowing up a few stray splats (a hard cut-off would draw its outline through the layers in front).
 MIN_KNOWN = 0.1
+
+
+class LayerSplatter(Protocol):
+    """What :func:`render_layers` needs of a pass: splat one layer, blur one channel.
+
+    Both return their image and the OpenCL times ``{"device_ms": ..., "transfer_ms": ...}``.
+    """
+
+    def splat_layer(self, images: list, cocs: list) -> tuple:
+        """Splat and resolve the premultiplied ``(rgb, alpha)`` images, float32 (H, W, C + 1),
+        zero outside the layer, each pixel with the PSF of its signed CoC ``cocs[i]`` (H, W)
+        (px; 0 outside the layer); all of them into one canvas. Returns float32 (H, W, C + 1)."""
+
+    def blur(self, image, radius_px: float) -> tuple:
+        """``image`` (H, W) float32 blurred by the PSF of CoC radius ``radius_px`` everywhere."""
 
 
 @dataclass(frozen=True)
@@ -150,13 +169,13 @@ def _bins(layer: PixelLayer, edges: np.ndarray) -> np.ndarray:
     return np.where(_live(layer), index, -1)
 
 
-def render_layers(splatter, layers, n_layers: int):
-    """Polygonal depth of field with occlusion: splat global depth layers and composite them.
+def render_layers(splatter: LayerSplatter, layers, n_layers: int):
+    """Depth of field with occlusion: splat global depth layers and composite them.
 
     Parameters
     ----------
-    splatter : runtime_cl.polygon.splat.PolygonSplatter
-        The aperture's exact splatter; its canvases hold one layer each.
+    splatter : LayerSplatter
+        Splats one layer at a time (e.g. :class:`runtime_cl.polygon.layers.PolygonLayerSplatter`).
     layers : PixelLayer or list of PixelLayer
         The input: one image, or the layers of a layered image (any order).
     n_layers : int
@@ -168,9 +187,10 @@ def render_layers(splatter, layers, n_layers: int):
         Premultiplied radiance (C as the input's ``rgb``).
     info : dict
         ``edges`` (signed CoC, px), ``layers`` (per non-empty layer: ``index``, ``pixels``,
-        ``radius_px`` (rho), ``max_radius_px``, ``kernel_ms``, ``coverage_gain``: the layer's
-        total coverage after the re-weighting over before, 1 without holes), ``kernel_ms``
-        (event-profiled, all layers) and ``wall_ms`` (the whole call).
+        ``radius_px`` (rho), ``max_radius_px``, ``device_ms``, ``transfer_ms``,
+        ``coverage_gain``: the layer's total coverage after the re-weighting over before, 1
+        without holes), ``device_ms`` and ``transfer_ms`` (event-profiled, all layers) and
+        ``wall_ms`` (the whole call).
     """
     start = time.perf_counter()
     layers = _check_layers(layers)
@@ -187,39 +207,44 @@ def render_layers(splatter, layers, n_layers: int):
         nearer = sum(x.alpha * ((b >= 0) & (b < index)) for x, b in zip(layers, bins))
         known = np.ones((h, w), np.float32)
         if np.any(nearer > 0):
-            hidden, info = splatter.render(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
-            stats["kernel_ms"] += info["kernel_ms"]
+            hidden, times = splatter.blur(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
+            _add(stats, times)
             known = 1.0 - hidden
         weight = 1.0 / np.clip(np.maximum(known, alpha), MIN_KNOWN, 1.0)
         opacity = np.minimum(alpha * weight, 1.0)
         if per_layer:                                                # something lies behind
-            own, info = splatter.render(np.minimum(sites, 1.0), stats["radius_px"])
-            stats["kernel_ms"] += info["kernel_ms"]
+            own, times = splatter.blur(np.minimum(sites, 1.0), stats["radius_px"])
+            _add(stats, times)
             opacity = np.maximum(opacity, np.minimum(own / np.clip(known, MIN_KNOWN, 1.0), 1.0))
         out = colour * weight[..., None] + (1.0 - opacity)[..., None] * out
         gain = float(np.minimum(alpha * weight, 1.0).sum() / max(float(np.minimum(alpha, 1.0).sum()), 1e-30))
         per_layer.append(dict(stats, index=index, coverage_gain=gain))
     info = {"edges": edges.tolist(), "layers": per_layer[::-1],
-            "kernel_ms": sum(x["kernel_ms"] for x in per_layer),
+            "device_ms": sum(x["device_ms"] for x in per_layer),
+            "transfer_ms": sum(x["transfer_ms"] for x in per_layer),
             "wall_ms": (time.perf_counter() - start) * 1e3}
     return out.astype(np.float32), info
 
 
-def _splat_layer(splatter, layers, members):
+def _add(stats: dict, times: dict) -> None:
+    stats["device_ms"] += times["device_ms"]
+    stats["transfer_ms"] += times["transfer_ms"]
+
+
+def _splat_layer(splatter: LayerSplatter, layers, members):
     """One depth layer: resolved premultiplied colour (H, W, C), coverage (H, W), the coverage of
-    its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, ``kernel_ms``)."""
-    h, w, c = layers[0].rgb.shape
+    its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, times)."""
+    c = layers[0].rgb.shape[2]
     parts = [(x, m) for x, m in zip(layers, members) if m.any()]
     images = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None] for x, m in parts]
-    radii = [np.where(m, np.abs(x.coc), 0.0).astype(np.float32) for x, m in parts]
-    canvas = splatter.canvas(h, w, c + 1, sum(float(np.abs(im).sum(dtype=np.float64)) for im in images))
-    kernel_ms = sum(splatter.splat(canvas, im, r)["splat_ms"] for im, r in zip(images, radii))
-    resolved, info = splatter.resolve(canvas)
-    kernel_ms += info["prefix_ms"] + info["sum_ms"]
+    cocs = [np.where(m, x.coc, 0.0).astype(np.float32) for x, m in parts]
+    resolved, times = splatter.splat_layer(images, cocs)
+    radii = [np.abs(k) for k in cocs]
     sites = sum(im[..., c] for im in images)
     # rho weighs radii by coverage; a layer of pure light (zero alpha, e.g. the sky) by pixel
     weights = [im[..., c] for im in images] if sites.any() else [m.astype(np.float32) for _, m in parts]
     rho = sum(float((wt * r).sum()) for wt, r in zip(weights, radii)) / sum(float(wt.sum()) for wt in weights)
     stats = {"pixels": int(sum(m.sum() for _, m in parts)), "radius_px": rho,
-             "max_radius_px": float(max(r.max() for r in radii)), "kernel_ms": kernel_ms}
+             "max_radius_px": float(max(r.max() for r in radii)), "device_ms": times["device_ms"],
+             "transfer_ms": times["transfer_ms"]}
     return resolved[..., :c], resolved[..., c], sites.astype(np.float32), stats

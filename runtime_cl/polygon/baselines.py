@@ -69,8 +69,8 @@ class BaselineSplatter:
         self.nnz = np.array([len(t) for t in terms])
         packed = np.concatenate([np.insert(t, 0, 0, axis=1) for t in terms])   # (0, dx, dy, v)
         self.extent = int(max(np.abs(t[:, :2]).max() for t in terms if len(t)))
-        self._start = self.sp._upload(np.concatenate([[0], np.cumsum(self.nnz)]).astype(np.int32))
-        self._packed = self.sp._upload(np.ascontiguousarray(packed, np.int32))
+        self._start = self.sp.upload(np.concatenate([[0], np.cumsum(self.nnz)]).astype(np.int32))
+        self._packed = self.sp.upload(np.ascontiguousarray(packed, np.int32))
         self._entries = last
 
     def _kernel(self, c: int, name: str):
@@ -78,7 +78,7 @@ class BaselineSplatter:
             prg, _ = self.sp.device.program(("polygon/entry.cl", "polygon/baselines.cl"),
                                             [f"-DNC={c}", f"-DBUCKETS={BUCKETS}", f"-DCB={CB}"])
             for n in ("scatter", "row_prefix", "column_out"):
-                self._kernels[(c, n)] = self.sp._cl.Kernel(prg, n)
+                self._kernels[(c, n)] = self.sp.cl.Kernel(prg, n)
         return self._kernels[(c, name)]
 
     def render(self, image, radius, fixed: bool = False):
@@ -86,10 +86,10 @@ class BaselineSplatter:
 
         ``fixed`` (dense, dxdy): the int64 sums, units ``2^-info["exponent"]``.
         """
-        sp, cl, queue = self.sp, self.sp._cl, self.sp.device.queue
-        img = sp._image(image)
+        sp, cl, queue = self.sp, self.sp.cl, self.sp.device.queue
+        img = sp.check_image(image)
         h, w, c = img.shape
-        r = np.ascontiguousarray(np.broadcast_to(sp._radius(radius, (h, w)), (h, w)))
+        r = np.ascontiguousarray(np.broadcast_to(sp.check_radius(radius, (h, w)), (h, w)))
         start = time.perf_counter()
         table = sp.table.ensure(float(r.max()))
         self._table(int(table.entry(r.max())))
@@ -97,15 +97,15 @@ class BaselineSplatter:
         ch, cw = h + 2 * pad, w + 2 * pad
         if self.method == "laplacian":
             ch, cw = fft_friendly(ch), fft_friendly(cw)
-        canvas = sp._alloc(ch * cw * c * 8, "padded canvas")
+        canvas = sp.alloc(ch * cw * c * 8, "padded canvas")
         cl.enqueue_fill_buffer(queue, canvas, np.uint64(0), 0, ch * cw * c * 8)
         e = np.repeat(fixed_point_exponents(float(np.abs(img).sum(dtype=np.float64))), c)
         unit = np.ldexp(1.0, e)[None, :] / table.area[:, None]
         span = 2 * self.extent + 1
         tile = max(32, span // 2)
         period = 2 + span // tile
-        args = [sp._upload(img), sp._upload(r), np.int32(w), np.int32(h), table.breaks,
-                np.int32(len(table)), table.bucket, self._start, self._packed, sp._upload(unit),
+        args = [sp.upload(img), sp.upload(r), np.int32(w), np.int32(h), table.breaks,
+                np.int32(len(table)), table.bucket, self._start, self._packed, sp.upload(unit),
                 canvas, np.int32(cw), np.int32(pad), np.int32(tile), np.int32(period)]
         n_tx, n_ty = -(-w // tile), -(-h // tile)
         k = self._kernel(c, "scatter")
@@ -128,10 +128,10 @@ class BaselineSplatter:
             if dxdy:
                 ev.append(self._kernel(c, "row_prefix")(queue, (ch,), (1,), canvas, np.int32(cw)))
             out = np.empty((h, w, c), np.int64 if fixed else np.float32)
-            dev = sp._alloc(out.nbytes, "output image")
+            dev = sp.alloc(out.nbytes, "output image")
             ev.append(self._kernel(c, "column_out")(
                 queue, (-(-w // CB),), (1,), canvas, np.int32(cw), np.int32(pad), np.int32(w), np.int32(h),
-                np.int32(1 if dxdy else 0), sp._upload(np.ldexp(1.0, -e)), dev, dev, np.int32(1 if fixed else 0)))
+                np.int32(1 if dxdy else 0), sp.upload(np.ldexp(1.0, -e)), dev, dev, np.int32(1 if fixed else 0)))
             cl.enqueue_copy(queue, out, dev)
             info["prefix_ms"] = event_ms(*ev)
         info["kernel_ms"] = sum(v for k, v in info.items() if k.endswith("_ms"))

@@ -42,7 +42,7 @@ class RadiusTable:
     """
 
     def __init__(self, oracle: ScaleOracle, directions: np.ndarray, upload):
-        self.oracle, self.directions, self._upload = oracle, directions, upload
+        self.oracle, self.directions, self.upload = oracle, directions, upload
         self.scale: ScaleTable | None = None
         self.terms: list[PolygonTerms] = []
         self.build_seconds = 0.0
@@ -78,10 +78,10 @@ class RadiusTable:
                                 for t in terms], np.int64)
         n_buckets = int(math.floor(float(scale.max_radius) * BUCKETS)) + 2
         bucket = scale.index(np.arange(n_buckets, dtype=np.float64) / BUCKETS)
-        self.breaks = self._upload(scale.breaks.astype(np.float32))
-        self.bucket = self._upload(np.ascontiguousarray(bucket, np.int32))
-        self.start = self._upload(np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
-        self.packed = self._upload(np.ascontiguousarray(packed, np.int32))
+        self.breaks = self.upload(scale.breaks.astype(np.float32))
+        self.bucket = self.upload(np.ascontiguousarray(bucket, np.int32))
+        self.start = self.upload(np.concatenate([[0], np.cumsum(counts)]).astype(np.int32))
+        self.packed = self.upload(np.ascontiguousarray(packed, np.int32))
         self.scale, self.terms = scale, terms
         self.build_seconds += time.perf_counter() - start
         return self

@@ -61,7 +61,7 @@ class ScaleOracle:
         self.device = device or get_device()
         import pyopencl as cl
 
-        self._cl = cl
+        self.cl = cl
         mf = cl.mem_flags
         ctx = self.device.context
         self._v = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.vertices)
@@ -75,12 +75,12 @@ class ScaleOracle:
             scratch = -(-(n * ns * (8 + 4 + 4 + 2)) // 8) * 8
             prg, _ = self.device.program("polygon/scale.cl", [f"-DNV={n}", f"-DWINDOW={window}",
                                                               f"-DSCRATCH={scratch}"])
-            self._kernels[window] = (self._cl.Kernel(prg, "scale_dp"), scratch)
+            self._kernels[window] = (self.cl.Kernel(prg, "scale_dp"), scratch)
         return self._kernels[window]
 
     def raw(self, radii) -> np.ndarray:
         """Chosen vertices before simplification, int64 (len(radii), n, 2)."""
-        cl = self._cl
+        cl = self.cl
         mf = cl.mem_flags
         ctx, queue = self.device.context, self.device.queue
         r = np.ascontiguousarray(radii, np.float64).ravel()

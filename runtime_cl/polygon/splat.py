@@ -113,7 +113,7 @@ class PolygonSplatter:
     def __init__(self, vertices, directions, device=None):
         import pyopencl as cl
 
-        self._cl = cl
+        self.cl = cl
         self.device = device or get_device()
         self.oracle = ScaleOracle(vertices, directions, self.device)
         dirs = [edge_direction(*d) for d in np.asarray(directions, np.int64)]
@@ -122,9 +122,9 @@ class PolygonSplatter:
         self.bmax = int(np.abs(self.directions[:, 1]).max())
         step = math.lcm(CB, *(int(a) for a in self.directions[:, 0]))
         self.chunk = step * max(1, 64 // step)   # prefix-sum chunk width (multiple of every a, CB)
-        self.table = RadiusTable(self.oracle, self.directions, self._upload)
+        self.table = RadiusTable(self.oracle, self.directions, self.upload)
         self._kernels: dict = {}
-        self._dirs = self._upload(self.directions)
+        self.dirs_buf = self.upload(self.directions)
         self._uniform = UniformBlur(self)
 
     def kernel_terms(self, radius: float):
@@ -136,8 +136,8 @@ class PolygonSplatter:
         return self.table.polygon(radius)
 
     # ----------------------------------------------------------------- OpenCL plumbing
-    def _upload(self, array):
-        cl = self._cl
+    def upload(self, array):
+        cl = self.cl
         return cl.Buffer(self.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
                          hostbuf=np.ascontiguousarray(array))
 
@@ -147,7 +147,7 @@ class PolygonSplatter:
                     f"-DBMAX={self.bmax}", f"-DCB={CB}", f"-DCHUNK={self.chunk}", f"-DBUCKETS={BUCKETS}"]
             prg, _ = self.device.program(("polygon/entry.cl", "polygon/splat.cl"), opts)
             for n in ("splat", "prefix_local", "prefix_carry", "comb_exit", "comb_prefix", "vsum"):
-                self._kernels[(channels, n)] = self._cl.Kernel(prg, n)
+                self._kernels[(channels, n)] = self.cl.Kernel(prg, n)
         return self._kernels[(channels, name)]
 
     def _launch(self, channels, name, size, *args):
@@ -157,17 +157,17 @@ class PolygonSplatter:
         return self._kernel(channels, name)(self.device.queue, (-(-int(size) // group) * group,),
                                             (group,), *args)
 
-    def _alloc(self, nbytes: int, what: str):
+    def alloc(self, nbytes: int, what: str):
         limit = int(self.device.device.max_mem_alloc_size)
         if nbytes > limit:
             raise InputError(f"image: the {what} need {nbytes >> 20} MiB, above the device's "
                              f"{limit >> 20} MiB allocation limit; split the image into tiles or "
                              "use a polygon with fewer edge directions")
-        return self._cl.Buffer(self.device.context, self._cl.mem_flags.READ_WRITE, max(nbytes, 8))
+        return self.cl.Buffer(self.device.context, self.cl.mem_flags.READ_WRITE, max(nbytes, 8))
 
     # ----------------------------------------------------------------- validation
     @staticmethod
-    def _image_array(image) -> np.ndarray:
+    def image_array(image) -> np.ndarray:
         """The image as C-contiguous float32 (H, W, C), shape checked (values not)."""
         a = np.asarray(image)
         if a.ndim == 2:
@@ -178,15 +178,15 @@ class PolygonSplatter:
         return np.ascontiguousarray(a, np.float32)
 
     @classmethod
-    def _image(cls, image) -> np.ndarray:
+    def check_image(cls, image) -> np.ndarray:
         """:meth:`_image_array`, and every value finite."""
-        a = cls._image_array(image)
+        a = cls.image_array(image)
         if not (np.isfinite(a.max()) and np.isfinite(a.min())):   # NaN propagates through max
             raise non_finite_error(a)
         return a
 
     @staticmethod
-    def _radius(radius, shape):
+    def check_radius(radius, shape):
         r = np.asarray(radius)
         if r.ndim != 0 and r.shape != shape:
             raise InputError(f"radius: shape {r.shape} does not match the image's {shape}; pass one "
@@ -216,9 +216,9 @@ class PolygonSplatter:
             raise InputError(f"bound: {bound!r} must be a finite number >= 0 (total |colour|)")
         bound = float(bound)
         nd, plane = len(self.directions), height * width * channels * 8
-        bufs = self._alloc(nd * plane, f"{nd} direction buffers")
-        comb = self._alloc(self.amax * width * channels * 8, "border sums")
-        cl, q = self._cl, self.device.queue
+        bufs = self.alloc(nd * plane, f"{nd} direction buffers")
+        comb = self.alloc(self.amax * width * channels * 8, "border sums")
+        cl, q = self.cl, self.device.queue
         cl.enqueue_fill_buffer(q, bufs, np.uint64(0), 0, nd * plane)
         cl.enqueue_fill_buffer(q, comb, np.uint64(0), 0, self.amax * width * channels * 8)
         return PolygonCanvas(height, width, channels, bound,
@@ -239,7 +239,7 @@ class PolygonSplatter:
         dict
             ``splat_ms`` (event-profiled) and ``launches``.
         """
-        events = self._splat(canvas, self._image(image), radius)
+        events = self._splat(canvas, self.check_image(image), radius)
         return {"splat_ms": event_ms(*events), "launches": len(events)}
 
     def _splat(self, canvas, img, radius):
@@ -247,7 +247,7 @@ class PolygonSplatter:
         if (h, w, c) != (canvas.height, canvas.width, canvas.channels):
             raise InputError(f"image: shape {img.shape} does not match the canvas "
                              f"{(canvas.height, canvas.width, canvas.channels)}")
-        r = self._radius(radius, (h, w))
+        r = self.check_radius(radius, (h, w))
         r = np.ascontiguousarray(np.broadcast_to(r, (h, w)))
         energy = float(np.abs(img).sum(dtype=np.float64))
         if canvas.used + energy > canvas.bound * (1 + 1e-6):   # 2x headroom below 2^63
@@ -263,9 +263,9 @@ class PolygonSplatter:
         tw = max(ROW, th)
         px, py = 2 + span // tw, 2 + span // th
         unit = np.ldexp(1.0, canvas.exponent)[None, :] / table.area[:, None]   # 2^e / area
-        args = [self._upload(img), self._upload(r), np.int32(w), np.int32(h), table.breaks,
-                np.int32(len(table)), table.bucket, table.start, table.packed, self._upload(unit),
-                self._dirs, canvas.bufs, canvas.comb, np.int32(tw), np.int32(th), np.int32(px),
+        args = [self.upload(img), self.upload(r), np.int32(w), np.int32(h), table.breaks,
+                np.int32(len(table)), table.bucket, table.start, table.packed, self.upload(unit),
+                self.dirs_buf, canvas.bufs, canvas.comb, np.int32(tw), np.int32(th), np.int32(px),
                 np.int32(py)]
         n_tx, n_ty = -(-w // tw), -(-h // th)
         events = []
@@ -280,11 +280,11 @@ class PolygonSplatter:
         """Prefix sums (eq. 10, 11) and conversion of a filled canvas.
 
         Returns ``(image, info)``: float32 (H, W, C), or with ``fixed=True`` the int64 sums in
-        units of ``2^-canvas.exponent``; ``info`` holds event-profiled ``prefix_ms``, ``sum_ms``.
-        The canvas is consumed (its buffers hold prefix sums afterwards).
+        units of ``2^-canvas.exponent``; ``info`` holds event-profiled ``prefix_ms``, ``sum_ms``
+        and ``download_ms``. The canvas is consumed (its buffers hold prefix sums afterwards).
         """
-        out, events, ev = self._resolve(canvas, fixed)
-        return out, {"prefix_ms": event_ms(*events), "sum_ms": event_ms(ev)}
+        out, events, ev, down = self._resolve(canvas, fixed)
+        return out, {"prefix_ms": event_ms(*events), "sum_ms": event_ms(ev), "download_ms": event_ms(down)}
 
     def _resolve(self, canvas, fixed):
         h, w, c = canvas.height, canvas.width, canvas.channels
@@ -296,9 +296,9 @@ class PolygonSplatter:
                                            np.int64(k * self._carry_plane(w, h, c)), canvas.comb))
         pairs = self.amax * (self.amax + 1) // 2
         events.append(self._launch(c, "comb_prefix", pairs * c, canvas.comb, np.int32(w)))
-        out, ev = self._sum(c, canvas.bufs, w, h, carry, canvas.comb,
-                            np.ldexp(1.0, -canvas.exponent), fixed)
-        return out, events, ev
+        out, ev, down = self._sum(c, canvas.bufs, w, h, carry, canvas.comb,
+                                  np.ldexp(1.0, -canvas.exponent), fixed)
+        return out, events, ev, down
 
     def _carry_plane(self, bw: int, bh: int, c: int) -> int:
         """ulongs of one direction's carry table (``prefix_carry``: rows padded by CPAD)."""
@@ -307,7 +307,7 @@ class PolygonSplatter:
     def _prefix_sums(self, c, bufs, bw, bh):
         """Chunked directional prefix sums of every direction (eq. 10); (carries, events)."""
         cplane, plane = self._carry_plane(bw, bh, c), bw * bh * c
-        carry = self._alloc(len(self.directions) * cplane * 8, "prefix carries")
+        carry = self.alloc(len(self.directions) * cplane * 8, "prefix carries")
         events = []
         for k, (a, b) in enumerate(self.directions):
             events.append(self._launch(c, "prefix_local", -(-bw // self.chunk), bufs,
@@ -320,12 +320,12 @@ class PolygonSplatter:
 
     def _sum(self, c, bufs, w, h, carry, comb, factor, fixed):
         out = np.empty((h, w, c), np.int64 if fixed else np.float32)
-        dev = self._alloc(out.nbytes, "output image")
-        ev = self._launch(c, "vsum", -(-w // CB), bufs, self._dirs, np.int32(w), np.int32(h), carry,
-                          comb, self._upload(np.asarray(factor, np.float64)), dev, dev,
+        dev = self.alloc(out.nbytes, "output image")
+        ev = self._launch(c, "vsum", -(-w // CB), bufs, self.dirs_buf, np.int32(w), np.int32(h), carry,
+                          comb, self.upload(np.asarray(factor, np.float64)), dev, dev,
                           np.int32(1 if fixed else 0))
-        self._cl.enqueue_copy(self.device.queue, out, dev)
-        return out, ev
+        down = self.cl.enqueue_copy(self.device.queue, out, dev)
+        return out, ev, down
 
     # ----------------------------------------------------------------- one-call rendering
     def render(self, image, radius, fixed: bool = False):
@@ -346,25 +346,29 @@ class PolygonSplatter:
         -------
         blurred : ndarray, float32 (or int64), the shape of ``image``
         info : dict
-            Event-profiled kernel times (``*_ms``, ``kernel_ms``), ``wall_ms`` (this call),
+            Event-profiled kernel times (``*_ms``, ``kernel_ms``), the event-profiled download
+            ``transfer_ms`` (inputs are copied by the host), ``wall_ms`` (this call),
             ``exponent``, ``area`` (uniform).
         """
         start = time.perf_counter()
-        img = self._image_array(image)
+        img = self.image_array(image)
         h, w, c = img.shape
-        r = self._radius(radius, (h, w))
+        r = self.check_radius(radius, (h, w))
+        download_ms = 0.0   # the uniform blur writes the host's array in place (zero copy)
         if r.ndim == 0 and r == 0 and not fixed:
-            img = self._image(img)
+            img = self.check_image(img)
             out, info = img.copy(), {"exponent": np.zeros(c, np.int64), "area": 1}   # the delta
         elif r.ndim == 0:
             out, info = self._uniform.render(img, float(r), fixed)   # checks the values itself
         else:
-            img = self._image(img)
+            img = self.check_image(img)
             canvas = self.canvas(h, w, c, float(np.abs(img).sum(dtype=np.float64)))
             splat = self._splat(canvas, img, r)
-            out, events, ev = self._resolve(canvas, fixed)
+            out, events, ev, down = self._resolve(canvas, fixed)
             info = {"splat_ms": event_ms(*splat), "prefix_ms": event_ms(*events), "sum_ms": event_ms(ev),
                     "exponent": canvas.exponent}
+            download_ms = event_ms(down)
         info["kernel_ms"] = sum(v for k, v in info.items() if k.endswith("_ms"))
+        info["transfer_ms"] = download_ms
         info["wall_ms"] = (time.perf_counter() - start) * 1e3
         return (out if np.ndim(image) == 3 else out[..., 0]), info

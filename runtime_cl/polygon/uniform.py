@@ -208,7 +208,7 @@ class UniformBlur:
         paged in, and zeroed by the OS, on every call: ~10 ms per 64 MiB)."""
         if name not in self._buffers or self._buffers[name].size < nbytes:
             self._buffers.pop(name, None)
-            self._buffers[name] = self.sp._alloc(nbytes, what)
+            self._buffers[name] = self.sp.alloc(nbytes, what)
         return self._buffers[name]
 
     def _entry(self, e: int, radius: float) -> _Kernel:
@@ -293,14 +293,14 @@ class UniformBlur:
         qr = qrow0 + qlast + 1
         stride = len(dirs) * rb * (V * nvec + 2 * pad) + V * (vc1 - vc0) + ql + t.nnz
         taps = [np.asarray(a, np.int32) for a in (-t.dx[order] * c, t.dy[order], t.value[order])]
-        tables = [sp._upload(a) for a in (tinfo, *taps, istart, itaps, events)]
-        kernel = sp._cl.Kernel(prg, "uniform_sweep")
+        tables = [sp.upload(a) for a in (tinfo, *taps, istart, itaps, events)]
+        kernel = sp.cl.Kernel(prg, "uniform_sweep")
         i32 = np.int32
         for name, value in dict(
                 W=i32(w), H=i32(h), LO=i32((int(ox.max()) - x0) * c), QR=i32(qr), QL=i32(ql),
                 QROW0=i32(qrow0), QLAST=i32(qlast), QLANE0=i32(qlane0), nvec=i32(nvec),
                 vc0=i32(vc0), vc1=i32(vc1), out_lanes=i32(w * c), nslots=i32(len(ctl) - CTL),
-                SUB=i32(sub), min_take=i32(-(-take_rows // sub)), dirs=sp._dirs,
+                SUB=i32(sub), min_take=i32(-(-take_rows // sub)), dirs=sp.dirs_buf,
                 tinfo=tables[0], tdx=tables[1], tdy=tables[2], tval=tables[3], n_taps=i32(t.nnz),
                 istart=tables[4], itaps=tables[5], events=tables[6], n_events=i32(len(ev)),
                 scratch_stride=np.int64(stride), sbits=i32(exponent_bits(t)),
@@ -324,7 +324,7 @@ class UniformBlur:
         InputError
             ``img`` holds NaN or inf (found on the device, with the largest ``|colour|``).
         """
-        sp, cl = self.sp, self.sp._cl
+        sp, cl = self.sp, self.sp.cl
         queue = sp.device.queue
         h, w, c = img.shape
         sp.table.ensure(float(radius))
@@ -334,7 +334,7 @@ class UniformBlur:
         out = _aligned_empty((h, w, c), np.int64 if fixed else np.float32)
         out_buf = cl.Buffer(sp.device.context, cl.mem_flags.WRITE_ONLY | cl.mem_flags.USE_HOST_PTR,
                             hostbuf=out)
-        ctl_buf = sp._upload(plan.ctl)
+        ctl_buf = sp.upload(plan.ctl)
         k = plan.kernel
         for name, value in (("image", img_buf), ("q", self._buffer("q", plan.q_bytes,
                             "fixed-point rows")), ("scratch", self._buffer(

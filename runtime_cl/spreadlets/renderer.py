@@ -25,7 +25,6 @@ from runtime_cl.integrate.poisson import poisson_integrate
 from runtime_cl.psf.grid_cl import check_coords
 from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter
 
-METHODS = ("spreadlets", "splat", "filter")
 
 
 class Renderer:
@@ -64,12 +63,7 @@ class Renderer:
     def _wrapper(self, method: str, channels: int, rotate: bool):
         key = (method, channels, rotate)
         if key not in self._wrappers:
-            if method == "filter":
-                self._wrappers[key] = GatherFilter(self.ddb, channels, rotate=rotate)
-            else:
-                self._wrappers[key] = TileSplatter(self.ddb, channels, dense_all=method == "splat",
-                                                   run_max=self.run_max, rotate=rotate,
-                                                   spreadlet_rotation=self.spreadlet_rotation)
+            self._wrappers[key] = METHODS[method].wrapper(self, channels, rotate)
         return self._wrappers[key]
 
     @property
@@ -161,25 +155,69 @@ class Renderer:
         upload_ms = event_ms(*ups)
         t = {"method": method, "pixels": h * w, "upload_ms": upload_ms, "compile_ms": compile_ms,
              "rotated": rotate}
-        if method == "filter":
-            image, kernel_ms, download_ms, psf_px = wrapper.run(colour_buf, coords_buf, h, w, angle_buf)
-            t.update(filter_ms=kernel_ms, kernel_ms=kernel_ms, download_ms=download_ms, integrate_ms=0.0,
-                     spreadlets=0, dense_pixels=psf_px, tiles=0)
-        else:
-            out = wrapper.run(colour_buf, coords_buf, h, w, self.tile, angle_buf)
-            p = out.pad
-            t0 = time.perf_counter()
-            if method == "splat":
-                image = out.canvas[0, p:p + h, p:p + w].copy()
-            else:
-                # an all-zero Laplacian integrates to zero; skip the FFT when nothing was splat
-                lap = out.canvas[0]
-                image = (poisson_integrate(lap)[p:p + h, p:p + w] if out.spreadlets
-                         else np.zeros((h, w, lap.shape[-1]), np.float32))
-                if out.canvas.shape[0] > 1:
-                    image += out.canvas[1, p:p + h, p:p + w]
-            t.update(splat_ms=out.splat_ms, merge_ms=out.merge_ms, kernel_ms=out.splat_ms + out.merge_ms,
-                     download_ms=out.download_ms, integrate_ms=(time.perf_counter() - t0) * 1e3,
-                     spreadlets=out.spreadlets, dense_pixels=out.dense_pixels, tiles=out.tiles)
+        image, parts = METHODS[method].run(self, wrapper, colour_buf, coords_buf, h, w, angle_buf)
+        t.update(parts)
         t["total_ms"] = (time.perf_counter() - start) * 1e3
         return image, t
+
+
+class _Spreadlets:
+    """LSR18: spreadlets into a Laplacian canvas (fast-tracked cells dense into a second one),
+    integrated exactly, the dense canvas added."""
+
+    @staticmethod
+    def wrapper(r: Renderer, channels: int, rotate: bool):
+        return TileSplatter(r.ddb, channels, dense_all=False, run_max=r.run_max, rotate=rotate,
+                            spreadlet_rotation=r.spreadlet_rotation)
+
+    @staticmethod
+    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
+        out = wrapper.run(colour_buf, coords_buf, h, w, r.tile, angle_buf)
+        p, t0 = out.pad, time.perf_counter()
+        # an all-zero Laplacian integrates to zero; skip the FFT when nothing was splat
+        lap = out.canvas[0]
+        image = (poisson_integrate(lap)[p:p + h, p:p + w] if out.spreadlets
+                 else np.zeros((h, w, lap.shape[-1]), np.float32))
+        if out.canvas.shape[0] > 1:
+            image += out.canvas[1, p:p + h, p:p + w]
+        return image, _splat_times(out, (time.perf_counter() - t0) * 1e3)
+
+
+class _Splat:
+    """LSR18's Splat baseline: every pixel splats its dense PSF."""
+
+    @staticmethod
+    def wrapper(r: Renderer, channels: int, rotate: bool):
+        return TileSplatter(r.ddb, channels, dense_all=True, run_max=r.run_max, rotate=rotate,
+                            spreadlet_rotation=r.spreadlet_rotation)
+
+    @staticmethod
+    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
+        out = wrapper.run(colour_buf, coords_buf, h, w, r.tile, angle_buf)
+        p, t0 = out.pad, time.perf_counter()
+        image = out.canvas[0, p:p + h, p:p + w].copy()
+        return image, _splat_times(out, (time.perf_counter() - t0) * 1e3)
+
+
+class _Filter:
+    """LSR18's Filter baseline: every output pixel gathers with its own PSF."""
+
+    @staticmethod
+    def wrapper(r: Renderer, channels: int, rotate: bool):
+        return GatherFilter(r.ddb, channels, rotate=rotate)
+
+    @staticmethod
+    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
+        image, kernel_ms, download_ms, psf_px = wrapper.run(colour_buf, coords_buf, h, w, angle_buf)
+        return image, dict(filter_ms=kernel_ms, kernel_ms=kernel_ms, download_ms=download_ms,
+                           integrate_ms=0.0, spreadlets=0, dense_pixels=psf_px, tiles=0)
+
+
+def _splat_times(out, integrate_ms: float) -> dict:
+    return dict(splat_ms=out.splat_ms, merge_ms=out.merge_ms, kernel_ms=out.splat_ms + out.merge_ms,
+                download_ms=out.download_ms, integrate_ms=integrate_ms, spreadlets=out.spreadlets,
+                dense_pixels=out.dense_pixels, tiles=out.tiles)
+
+
+# The methods a Renderer runs, by name: LSR18's method and its two baselines.
+METHODS = {"spreadlets": _Spreadlets, "splat": _Splat, "filter": _Filter}

@@ -6,7 +6,8 @@ import pytest
 
 from lab.cli import main
 from lab.exr_io import LabelledImage, read_rgb, write_labelled
-from lab.polygon_aperture import coc_radius, polygon_aperture
+from lab.polygon_aperture import polygon_aperture
+from runtime_cl.camera.thin_lens import ThinLens
 
 CAMERA = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 1.4, "focus_distance_m": 0.25,
           "sensor_width_mm": 36.0}   # a 40-px-wide macro shot: the background's CoC is ~4 px
@@ -31,7 +32,7 @@ def test_render_polygon_matches_the_runtime(labelled, tmp_path, capsys):
     assert main(["render", str(path), "--method", "polygon", "--aperture", "octagon",
                  "--out", str(out)]) == 0
     assert "polygon (octagon" in capsys.readouterr().out
-    radius = coc_radius(image)
+    radius = np.abs(ThinLens.from_json(CAMERA).coc_radius_px(image.depth, image.width)).astype(np.float32)
     assert radius[:, :20].max() == 0 and radius[:, 20:].min() > 2    # left half in focus
     want, _ = polygon_aperture("octagon").splatter.render(image.rgb, radius)
     got = read_rgb(out)
@@ -53,7 +54,7 @@ def test_render_errors_name_the_option(labelled, tmp_path, capsys):
 
 def test_bench_dof_scene_radius_map():
     """The Fig. 13 scene: depths where the geometry puts them, f-number scaled to the largest R."""
-    from lab.bench_polygon import dof_scene_depth, scene_radius
+    from lab.bench.polygon import dof_scene_depth, scene_radius
 
     h, w, fov = 270, 480, 40.0
     z = dof_scene_depth(h, w, fov)
@@ -68,7 +69,7 @@ def test_bench_dof_scene_radius_map():
 
 @pytest.mark.slow
 def test_bench_polygon_quick(monkeypatch, tmp_path):
-    import lab.bench as bench
+    import lab.bench.output as bench
 
     monkeypatch.setattr(bench, "BENCH_DIR", tmp_path)
     assert main(["bench", "polygon", "--quick", "--repeats", "1"]) == 0
@@ -104,17 +105,23 @@ def layered_exr(tmp_path_factory):
 
 def test_render_layers_uses_the_layered_input_and_the_header_iris(layered_exr, tmp_path, capsys):
     from lab.optics.iris import Iris
-    from lab.polygon_aperture import iris_aperture, render_polygon
+    from lab.polygon_aperture import iris_aperture
+    from runtime_cl.layers.composite import PixelLayer, render_layers
+    from runtime_cl.polygon.layers import PolygonLayerSplatter
 
     path, image = layered_exr
     out = tmp_path / "out.exr"
     assert main(["render", str(path), "--method", "polygon", "--layers", "3", "--out", str(out)]) == 0
     said = capsys.readouterr().out
     assert "polygon (iris6" in said and "of 3 depth layers used (layered input)" in said
-    want, info = render_polygon(image, iris_aperture(Iris(6)), 3, layered_input=True)
+    lens, splatter = ThinLens.from_json(image.camera), iris_aperture(Iris(6)).splatter
+    coc = [lens.coc_radius_px(x.depth, image.width).astype(np.float32) for x in image.layers()]
+    want, info = render_layers(PolygonLayerSplatter(splatter),
+                               [PixelLayer(x.rgb, x.alpha, c) for x, c in zip(image.layers(), coc)], 3)
     np.testing.assert_array_equal(read_rgb(out), want)
     assert [x["index"] for x in info["layers"]] == [0, 2]           # foreground and background only
-    flat, _ = render_polygon(image, iris_aperture(Iris(6)), 3)
+    flat, _ = render_layers(PolygonLayerSplatter(splatter), PixelLayer(
+        image.rgb, image.alpha, lens.coc_radius_px(image.depth, image.width).astype(np.float32)), 3)
     assert np.abs(flat - want).max() > 0.05                           # the layers matter
     assert main(["render", str(path), "--method", "polygon", "--out", str(out)]) == 0
     assert "depth layers" not in capsys.readouterr().out

@@ -12,6 +12,7 @@ from polygon_reference import footprint, shape
 
 from runtime_cl.errors import InputError
 from runtime_cl.layers.composite import PixelLayer, layer_edges, render_layers
+from runtime_cl.polygon.layers import PolygonLayerSplatter
 from runtime_cl.polygon.splat import PolygonSplatter
 
 
@@ -85,10 +86,10 @@ def depth_scene(rng, h=26, w=34):
 def test_single_image_matches_brute_force(hexagon, n):
     rng = np.random.default_rng(n)
     img = depth_scene(rng)
-    got, info = render_layers(hexagon, img, n)
+    got, info = render_layers(PolygonLayerSplatter(hexagon), img, n)
     want = reference([img], n, hexagon)
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5 * want.max())
-    assert len(info["layers"]) <= n and info["kernel_ms"] > 0
+    assert len(info["layers"]) <= n and info["device_ms"] > 0
     assert info["edges"][0] == pytest.approx(img.coc.min()) and info["edges"][-1] == pytest.approx(img.coc.max())
 
 
@@ -104,14 +105,14 @@ def test_layered_input_matches_brute_force(hexagon):
                     np.full((h, w), -5.5, np.float32))
     empty = PixelLayer(np.zeros((h, w, 3), np.float32), np.zeros((h, w), np.float32),
                        np.full((h, w), 50.0, np.float32))
-    got, _ = render_layers(hexagon, [fg, bg, empty], 4)
+    got, _ = render_layers(PolygonLayerSplatter(hexagon), [fg, bg, empty], 4)
     want = reference([fg, bg, empty], 4, hexagon)
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5 * want.max())
 
 
 def test_single_layer_is_todays_polygon_render(hexagon):
     img = depth_scene(np.random.default_rng(3))
-    got, info = render_layers(hexagon, img, 1)
+    got, info = render_layers(PolygonLayerSplatter(hexagon), img, 1)
     today, _ = hexagon.render(img.rgb, np.abs(img.coc))
     np.testing.assert_allclose(got, today, rtol=1e-6, atol=1e-7)
     assert [x["coverage_gain"] for x in info["layers"]] == [1.0]
@@ -121,10 +122,10 @@ def test_in_focus_foreground_is_not_bled_over(hexagon):
     """Bright bokeh behind an in-focus block: one layer bleeds over it, layers leave it exact."""
     img = depth_scene(np.random.default_rng(5))
     block = (slice(8, 18), slice(10, 22))
-    one, _ = render_layers(hexagon, img, 1)
+    one, _ = render_layers(PolygonLayerSplatter(hexagon), img, 1)
     assert np.abs(one[block] - img.rgb[block]).max() > 0.1          # today's result: bleeding
     for n in (2, 4, 8):
-        layered, _ = render_layers(hexagon, img, n)
+        layered, _ = render_layers(PolygonLayerSplatter(hexagon), img, n)
         np.testing.assert_allclose(layered[block], img.rgb[block], rtol=1e-6, atol=1e-6)
 
 
@@ -140,7 +141,7 @@ def test_polygon_steps_do_not_let_the_background_through(hexagon):
     results = []
     for glow in (0.0, 100.0):
         rgb = np.where((coc > 4)[..., None], np.float32(glow), near)
-        out, _ = render_layers(hexagon, PixelLayer(rgb, np.ones((h, w), np.float32), coc), 3)
+        out, _ = render_layers(PolygonLayerSplatter(hexagon), PixelLayer(rgb, np.ones((h, w), np.float32), coc), 3)
         results.append(out[inside])
     np.testing.assert_allclose(results[1], results[0], atol=1e-4)
 
@@ -154,12 +155,12 @@ def test_hole_behind_an_in_focus_object_is_filled():
     coc[15:25, 15:25] = 0.0
     rgb[15:25, 15:25] = 0.1
     img = PixelLayer(rgb, np.ones((h, w), np.float32), coc)
-    one, _ = render_layers(sp, img, 1)
+    one, _ = render_layers(PolygonLayerSplatter(sp), img, 1)
     rim = np.zeros((h, w), bool)
     rim[10:30, 10:30] = True
     rim[15:25, 15:25] = False
     assert one[rim].min() < 0.8 * 0.8                                # today: darkened (and tinted)
-    two, info = render_layers(sp, img, 2)
+    two, info = render_layers(PolygonLayerSplatter(sp), img, 2)
     np.testing.assert_allclose(two[rim], np.broadcast_to(rgb[0, 0], (rim.sum(), 3)), atol=1e-5)
     np.testing.assert_allclose(two[15:25, 15:25], rgb[15:25, 15:25], atol=1e-6)
     assert info["layers"][1]["coverage_gain"] > 1.01
@@ -173,7 +174,7 @@ def test_defocused_foreground_reveals_layered_background(hexagon):
     fg = PixelLayer(np.float32([0.0, 0.0, 1.0]) * alpha[..., None], alpha, np.full((h, w), -6.0, np.float32))
     bg = PixelLayer(np.full((h, w, 3), [1.0, 0.0, 0.0], np.float32), np.ones((h, w), np.float32),
                     np.full((h, w), 0.0, np.float32))
-    got, _ = render_layers(hexagon, [fg, bg], 2)
+    got, _ = render_layers(PolygonLayerSplatter(hexagon), [fg, bg], 2)
     cover, _ = hexagon.render(alpha, 6.0)
     np.testing.assert_allclose(got[..., 2], cover, atol=1e-6)
     np.testing.assert_allclose(got[..., 0], 1.0 - cover, atol=1e-6)   # red shows where blue thins out
@@ -185,8 +186,8 @@ def test_transparent_layer_changes_nothing(hexagon):
     h, w = img.alpha.shape
     ghost = PixelLayer(np.zeros((h, w, 3), np.float32), np.zeros((h, w), np.float32),
                        np.full((h, w), -80.0, np.float32))
-    a, info_a = render_layers(hexagon, [img], 3)
-    b, info_b = render_layers(hexagon, [ghost, img], 3)
+    a, info_a = render_layers(PolygonLayerSplatter(hexagon), [img], 3)
+    b, info_b = render_layers(PolygonLayerSplatter(hexagon), [ghost, img], 3)
     np.testing.assert_array_equal(a, b)
     assert info_a["edges"] == info_b["edges"]
 
@@ -196,7 +197,7 @@ def test_empty_layers_are_skipped(hexagon):
     coc = np.zeros((h, w), np.float32)
     coc[:, 6:] = 9.0                                                  # two depths, many bins
     img = PixelLayer(np.ones((h, w, 3), np.float32), np.ones((h, w), np.float32), coc)
-    _, info = render_layers(hexagon, img, 16)
+    _, info = render_layers(PolygonLayerSplatter(hexagon), img, 16)
     assert [x["index"] for x in info["layers"]] == [0, 15]
     assert layer_edges(img, 16).shape == (17,)
 
@@ -215,4 +216,4 @@ def test_bad_input_names_the_argument(hexagon, layers, n, match):
              "alpha": [PixelLayer(ok.rgb, ok.alpha * 2, ok.coc)],
              "nan": [PixelLayer(ok.rgb, ok.alpha, np.where(np.arange(5) == 2, np.nan, ok.coc).astype(np.float32))]}
     with pytest.raises(InputError, match=match):
-        render_layers(hexagon, cases.get(layers, layers) if isinstance(layers, str) else layers, n)
+        render_layers(PolygonLayerSplatter(hexagon), cases.get(layers, layers) if isinstance(layers, str) else layers, n)

@@ -33,9 +33,9 @@ def test_precompute_prints_progress_and_pace(cache, capsys):
 
 
 def test_bench_precompute_small(cache, tmp_path, monkeypatch):
-    from lab import bench
+    from lab.bench import output, precompute as bench
 
-    monkeypatch.setattr(bench, "BENCH_DIR", tmp_path / "bench")
+    monkeypatch.setattr(output, "BENCH_DIR", tmp_path / "bench")
     path = bench.bench_precompute(1, models="simple_lens", tables={"simple_lens": SMALL})
     data = json.loads(path.read_text())
     entry = data["models"]["simple_lens"]
@@ -48,9 +48,9 @@ def test_bench_precompute_small(cache, tmp_path, monkeypatch):
 
 
 def test_bench_models_filter_is_validated(tmp_path, monkeypatch):
-    from lab import bench
+    from lab.bench import output, precompute as bench
 
-    monkeypatch.setattr(bench, "BENCH_DIR", tmp_path / "bench")
+    monkeypatch.setattr(output, "BENCH_DIR", tmp_path / "bench")
     with pytest.raises(UserError, match=r"--models 'simple_lens,nope'.*\['nope'\].*registered"):
         bench.bench_precompute(1, models="simple_lens,nope")
     with pytest.raises(UserError, match="--workers 0"):
@@ -60,18 +60,18 @@ def test_bench_models_filter_is_validated(tmp_path, monkeypatch):
 
 def test_bench_records_a_model_that_needs_settings(cache, tmp_path, monkeypatch):
     """A model whose defaults are not enough is reported, not fatal to the other models."""
-    from lab import bench
+    from lab.bench import output, precompute as bench
 
-    monkeypatch.setattr(bench, "BENCH_DIR", tmp_path / "bench")
+    monkeypatch.setattr(output, "BENCH_DIR", tmp_path / "bench")
     path = bench.bench_precompute(1, models="simple_lens", build=False, tables={})
     entry = json.loads(path.read_text())["models"]["simple_lens"]
     assert "max_coc_px" in entry["error"]
 
 
 def test_bench_without_build_times_the_largest_psf(cache, tmp_path, monkeypatch):
-    from lab import bench
+    from lab.bench import output, precompute as bench
 
-    monkeypatch.setattr(bench, "BENCH_DIR", tmp_path / "bench")
+    monkeypatch.setattr(output, "BENCH_DIR", tmp_path / "bench")
     path = bench.bench_precompute(1, models="simple_lens", build=False, tables={"simple_lens": SMALL})
     entry = json.loads(path.read_text())["models"]["simple_lens"]
     assert "build" not in entry and entry["trace"]["mrays_per_second"] > 0

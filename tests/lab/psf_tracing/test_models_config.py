@@ -96,7 +96,7 @@ def test_bad_cell_is_a_user_error():
 
 @pytest.mark.slow
 def test_throughput_meets_lsr18_pace():
-    from lab.psf_tracing.benchmark import measure_throughput
+    from lab.bench.tracing import measure_throughput
 
     m = load_model("simple_lens", {"max_coc_px": 250.0})
     t = measure_throughput(m)

@@ -138,7 +138,7 @@ def _sweep(sp, img, maps, repeats):
 
 
 def _time_vs_radius(repeats, quick):
-    from .polygon_aperture import polygon_aperture
+    from lab.polygon_aperture import polygon_aperture
 
     h, w = (270, 480) if quick else (1080, 1920)
     radii = (10, 25, 50, 100, 150, 200)
@@ -168,7 +168,7 @@ def _time_vs_radius(repeats, quick):
 def _methods(repeats, quick):
     from runtime_cl.polygon.baselines import BaselineSplatter
 
-    from .polygon_aperture import polygon_aperture
+    from lab.polygon_aperture import polygon_aperture
 
     sizes = [(270, 480)] if quick else [(270, 480), (540, 960), (1080, 1920), (2160, 3840)]
     dense_max = 540 * 960
@@ -213,9 +213,9 @@ def _uniform_vs_fft(repeats, quick):
     from runtime_cl.polygon.kernel import rasterize_polygon
     from runtime_cl.polygon.splat import PolygonSplatter
 
-    from .sparsify.polygon import direction_set, rectify
-    from .sparsify.polygon_shapes import shape
-    from .sparsify.polygon_table import table1_polygon
+    from lab.sparsify.polygon import direction_set, rectify
+    from lab.sparsify.polygon_shapes import shape
+    from lab.sparsify.polygon_table import table1_polygon
 
     sizes = (512, 1024) if quick else (1024, 2048, 4096)
     t1_unit, t1_dirs = table1_polygon("hexagon")
@@ -262,8 +262,8 @@ def _uniform_vs_fft(repeats, quick):
 
 def bench_polygon(repeats: int = 3, quick: bool = False):
     """Run (a), (b), (c) and write ``reports/bench/polygon-*.json``; returns its path."""
-    from .bench import _write
-    from .errors import UserError
+    from lab.bench.output import write_bench
+    from lab.errors import UserError
 
     if not (isinstance(repeats, int) and repeats >= 1):
         raise UserError(f"--repeats {repeats}: must be an integer >= 1")
@@ -275,4 +275,4 @@ def bench_polygon(repeats: int = 3, quick: bool = False):
             "a_time_vs_radius": a, "b_methods": b, "c_uniform_vs_fft": c,
             "targets": {"a_ratio_wall_200_over_25": "<= 1.3", "c_speedup_vs_fft": ">= 5"},
             "met": {"a": a["ratio_wall_200_over_25"] <= 1.3, "c": worst >= 5}}
-    return _write("polygon", data)
+    return write_bench("polygon", data)

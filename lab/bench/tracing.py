@@ -1,6 +1,6 @@
 """Light-tracing throughput in M rays/s (LSR18's GPU pace: 700 M rays per PSF in ~20 s = 35 M/s).
 
-Usage: ``python -m lab.psf_tracing.benchmark`` prints the figure for SimpleLens at its defaults.
+Usage: ``python -m lab.bench.tracing`` prints the figure for SimpleLens at its defaults.
 """
 from __future__ import annotations
 

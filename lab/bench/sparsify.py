@@ -1,6 +1,6 @@
 """Measure the sparsifier on analytic PSFs: seconds, sparsity and similarity vs radius and density.
 
-``python -m lab.sparsify.bench [--radii 5,25,100,250] [--densities 0.5,1,2] [--rays N]
+``python -m lab.bench.sparsify [--radii 5,25,100,250] [--densities 0.5,1,2] [--rays N]
 [--out DIR]`` prints a table, writes ``sparsify_bench.json`` and one check figure per radius
 (PSF, Laplacian, spreadlets, reconstruction, error) to ``DIR`` (default /tmp/sparsify_check).
 With ``--rays`` the discs are light-traced (multinomial histograms of N rays) first, as the PSF
@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import analytic
-from .figures import save_check_figure
-from .laplacian import psf_laplacian, working_box
-from .spreadlets import sparsify
-from .stats import similarity
+from lab.sparsify import analytic
+from lab.sparsify.figures import save_check_figure
+from lab.sparsify.laplacian import psf_laplacian, working_box
+from lab.sparsify.spreadlets import sparsify
+from lab.sparsify.stats import similarity
 
 __all__ = ["bench"]
 

@@ -11,7 +11,7 @@ Splat baseline adds).
 
 Kernel times come from OpenCL event profiling, best of ``repeats`` after one warm-up render,
 so they do not include compilation or other processes' bursts on a shared machine. Usable
-without the lab: ``python -m runtime_cl.bench`` prints the figures as JSON (``--rotation``: the
+from the shell: ``python -m lab.bench.spreadlet_throughput`` prints the figures as JSON (``--rotation``: the
 cost of per-pixel PSF rotation, :func:`rotation`).
 """
 from __future__ import annotations
@@ -181,6 +181,15 @@ def rotation(height: int = 1024, width: int = 1024, r_max: float = 100.0, sample
                          "channels": channels, "repeats": repeats, "pad": db.pad, "rotated_pad": db.rotated_pad,
                          "mean_spreadlets_per_sample": db.n_spreadlets / db.n_samples},
             "kernel_ms": best, "ratios": ratios}
+
+
+def bench_rotation(repeats: int, size: int = 512, r_max: float = 50.0):
+    """``splatlab bench rotation``: :func:`rotation` written as ``reports/bench/rotation-*.json``:
+    spreadlets (and the pixel-by-pixel unrotated kernel) with a constant and a per-pixel angle
+    over without, as kernel-time ratios measured in the same run."""
+    from lab.bench.output import write_bench
+
+    return write_bench("rotation", rotation(size, size, r_max=r_max, repeats=repeats))
 
 
 def main(argv=None) -> None:

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from runtime_cl.bench import rotation, run
+from lab.bench.spreadlet_throughput import rotation, run
 from runtime_cl.psf.synthetic import defocus_scene, disc_database
 
 

@@ -16,7 +16,7 @@ setup: $(STAMP) $(LLVM) $(POCL)
 $(STAMP): pyproject.toml
 	test -x $(VPY) || $(PY) -m venv $(VENV)
 	$(VPY) -m pip install --quiet --upgrade pip
-	$(VPY) -m pip install --quiet -e '.[test]'
+	$(VPY) -m pip install --quiet -e '.[lab,test]'
 	touch $@
 
 # Dr.Jit's LLVM backend needs libLLVM >= 16; Debian bookworm ships 14/15 by default.

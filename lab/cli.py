@@ -11,6 +11,9 @@ from runtime_cl.errors import InputError
 from .bench import BENCHES
 
 ROOT = Path(__file__).resolve().parents[1]
+# Top-level modules of the `lab` extra (pyproject.toml): without them only the runtime commands run.
+LAB_EXTRA = {"scipy", "drjit", "mitsuba", "skimage", "matplotlib", "PIL", "tqdm", "numba", "shapely",
+             "dask", "distributed"}
 DEMO_SCENE = ROOT / "scenes" / "demo.toml"
 
 EPILOG = """\
@@ -186,6 +189,13 @@ def main(argv=None) -> int:
     except InputError as exc:
         print(f"splatlab {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except ModuleNotFoundError as exc:
+        if (exc.name or "").split(".")[0] not in LAB_EXTRA:
+            raise
+        print(f"splatlab {args.command}: error: this command needs splatlab's lab extra (no module "
+              f"{exc.name!r}); install it with `pip install 'splatlab[lab]'` (the base install has "
+              "the runtime: `splatlab render` and `splatlab db info`)", file=sys.stderr)
+        return 2
     except BrokenPipeError:  # e.g. `splatlab db info X | head`: the reader left, nothing to report
         sys.stderr.close()
         return 0

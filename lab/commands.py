@@ -132,8 +132,7 @@ def cmd_render(args) -> int:
     from runtime_cl.psf.database import SpreadletDatabase
 
     from .exr_io import write_rgb
-    from .pipeline import read_input
-    from .runtime_passes import aperture_info, frame_of, runtime_camera
+    from .runtime_passes import aperture_info, frame_of, read_input, runtime_camera
 
     cls = get_pass(args.method)
     _check_render_options(args, cls)

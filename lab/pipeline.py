@@ -134,17 +134,3 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -
 
     write_report(report, out_dir)
     return report
-
-
-def read_input(path, camera_file=None) -> LabelledImage:
-    """A labelled-pixel EXR for ``splatlab render``; ``camera_file`` (TOML) overrides its header."""
-    camera = None
-    if camera_file is not None:
-        from .scene import load_camera
-
-        camera = load_camera(camera_file).camera_json()
-    image = read_labelled(path, camera=camera)
-    if image.camera.get("lens") != "thin":
-        raise UserError(f"{path}: camera lens {image.camera.get('lens')!r}; `splatlab render` needs a thin "
-                        "lens camera (pass --camera FILE.toml with a [camera] model = \"thin\" table)")
-    return image

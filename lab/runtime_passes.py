@@ -113,3 +113,19 @@ def runtime_camera(image, source: str = "input camera header"):
     from runtime_cl.camera.thin_lens import ThinLens
 
     return ThinLens.from_json(image.camera, source) if image.camera.get("lens") == "thin" else None
+
+
+def read_input(path, camera_file=None):
+    """A labelled-pixel EXR for ``splatlab render``; ``camera_file`` (TOML) overrides its header."""
+    from .exr_io import read_labelled
+
+    camera = None
+    if camera_file is not None:
+        from .scene import load_camera
+
+        camera = load_camera(camera_file).camera_json()
+    image = read_labelled(path, camera=camera)
+    if image.camera.get("lens") != "thin":
+        raise UserError(f"{path}: camera lens {image.camera.get('lens')!r}; `splatlab render` needs a thin "
+                        "lens camera (pass --camera FILE.toml with a [camera] model = \"thin\" table)")
+    return image

@@ -1,0 +1,61 @@
+"""``splatlab bench``: benchmarks written as JSON under ``reports/bench/`` (:mod:`.output`).
+
+Methods are compared as ratios measured in the same run (the machine is shared and noisy).
+One module per benchmark:
+
+- :mod:`.runtime` - every runtime pass of a scene's plan (``bench runtime``);
+- :mod:`.precompute` - light tracing and database builds per PSF model (``bench precompute``);
+- :mod:`.polygon` - MHU21's exact polygonal bokeh (``bench polygon``);
+- :mod:`.spreadlet_throughput` - kernel rates on synthetic discs, and the cost of per-pixel
+  rotation (``bench rotation``);
+- :mod:`.tracing` - Dr.Jit PSF tracing rays/s of one model;
+- :mod:`.sparsify` - the sparsifier on analytic PSFs (``python -m lab.bench.sparsify``).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["BENCHES", "run_bench"]
+
+
+def _runtime(args) -> list:
+    from .runtime import bench_runtime
+
+    return [bench_runtime(args["scene"], args["repeats"])]
+
+
+def _precompute(args) -> list:
+    from .precompute import bench_precompute
+
+    return [bench_precompute(args["repeats"], args["models"], args["build"], args["workers"])]
+
+
+def _rotation(args) -> list:
+    from .spreadlet_throughput import bench_rotation
+
+    return [bench_rotation(args["repeats"])]
+
+
+def _polygon(args) -> list:
+    from .polygon import bench_polygon
+
+    return [bench_polygon(args["repeats"], quick=args["quick"])]
+
+
+# ``splatlab bench WHAT``: the benchmarks each name runs, in order.
+BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
+           "rotation": (_rotation,), "all": (_precompute, _runtime)}
+
+
+def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,
+              workers: int = 1, quick: bool = False) -> list[Path]:
+    """Run the benchmarks ``what`` names (:data:`BENCHES`); the JSON files written."""
+    from lab.errors import UserError
+
+    if not (isinstance(repeats, int) and repeats >= 1):
+        raise UserError(f"--repeats {repeats}: must be an integer >= 1")
+    if what not in BENCHES:
+        raise UserError(f"bench {what!r}: unknown; choose one of {list(BENCHES)}")
+    args = {"scene": scene_path, "repeats": repeats, "models": models, "build": build,
+            "workers": workers, "quick": quick}
+    return [path for bench in BENCHES[what] for path in bench(args)]

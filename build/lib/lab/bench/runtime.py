@@ -1,0 +1,46 @@
+"""``splatlab bench runtime``: every runtime pass a scene's plan runs, timed and scored in one run.
+
+The passes are the plan's (:func:`lab.runtime_passes.run_runtime`, the same ones a report runs,
+on the databases the plan builds), each timed by the runtime's one contract
+(:mod:`runtime_cl.timing`). Ratios are taken against the plan's first pass, measured in the same
+run (the machine is shared and noisy).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from lab.bench import output
+
+__all__ = ["bench_runtime"]
+
+# Counts a pass reports whose rate through its kernels is worth a figure (M per second).
+RATES = ("spreadlets", "dense_pixels")
+
+
+def bench_runtime(scene_path, repeats: int) -> Path:
+    """Every runtime pass of ``scene_path``'s plan: times, SSIM against the reference, ratios."""
+    from lab.pipeline import build_databases, inputs_and_reference, load_scene_and_plan
+    from lab.report.metrics import ssim
+    from lab.runtime_passes import run_runtime
+
+    scene, plan = load_scene_and_plan(scene_path)
+    image, reference, _ = inputs_and_reference(scene, plan)
+    databases = build_databases(scene, plan, image)
+    methods = {}
+    for label, (rendered, timing) in run_runtime(plan, image, databases, runs=repeats).items():
+        rgb = rendered[..., :3] if rendered.shape[2] >= 3 else rendered.repeat(3, axis=2)
+        methods[label] = dict(timing, ssim=ssim(rgb, reference))
+    base, base_m = next(iter(methods.items()))
+    ratios = {}
+    for label, m in list(methods.items())[1:]:
+        ratios[f"{label}_time_over_{base}"] = m["time_ms"] / base_m["time_ms"]
+        ratios[f"ssim_{base}_minus_{label}"] = base_m["ssim"] - m["ssim"]
+    throughput = {f"{label}_{count}_M_per_s": m["counts"][count] / m["device_ms"] / 1e3
+                  for label, m in methods.items() for count in RATES
+                  if m["counts"].get(count) and m["device_ms"] > 0}
+    data = {"scene": str(scene_path), "resolution": list(scene.info.resolution), "repeats": repeats,
+            "databases": {name: {"path": str(r.path)} for name, r in databases.items()},
+            "methods": methods, "ratios": ratios, "throughput": throughput,
+            "targets": {"splat_time_over_spreadlets": ">= 10", "ssim_spreadlets_minus_splat": ">= -0.02",
+                        "spreadlets_spreadlets_M_per_s": ">= 300 (aim ~650)"}}
+    return output.write_bench("runtime", data)

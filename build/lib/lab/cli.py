@@ -1,0 +1,209 @@
+"""The ``splatlab`` command line: plan, precompute, reference, render, report, bench, db, doctor, demo."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from runtime_cl.api import methods as runtime_methods
+from runtime_cl.errors import InputError
+
+from .bench import BENCHES
+
+ROOT = Path(__file__).resolve().parents[1]
+# Top-level modules of the `lab` extra (pyproject.toml): without them only the runtime commands run.
+LAB_EXTRA = {"scipy", "drjit", "mitsuba", "skimage", "matplotlib", "PIL", "tqdm", "numba", "shapely",
+             "dask", "distributed"}
+DEMO_SCENE = ROOT / "scenes" / "demo.toml"
+
+EPILOG = """\
+typical use:
+  splatlab demo                                  the main job on the embedded scene (make demo)
+  splatlab plan scenes/demo.toml                 what a scene calls for, what runs, what is skipped
+  splatlab report scenes/demo.toml               precompute + reference + runtime + SSIM/timing report
+  splatlab render in.exr --db simple_lens.spdb --method spreadlets --out out.exr
+  splatlab render moving.exr --db combined.spdb --out out.exr   motion.X, motion.Y channels in pixels
+  splatlab render in.exr --method polygon --aperture hexagon --out out.exr   exact polygonal bokeh
+  splatlab render in.exr --method polygon --layers 8 --out out.exr   ... with occlusion (depth layers)
+  splatlab bench runtime                         method timings and kernel throughput -> reports/bench/
+  splatlab doctor                                what is installed, what is missing and how to fix it
+
+Bad input (a typo in a scene, an EXR without Z, a foreign database) exits with status 2 and
+one line naming the file, the value and the fix.
+"""
+
+
+PRECOMPUTE_EPILOG = """\
+examples:
+  splatlab precompute simple_lens --set max_coc_px=64            one model, defaults + overrides
+  splatlab precompute simple_lens --set max_coc_px=64 --workers 2 --atlas reports/atlas
+  splatlab precompute scenes/demo.toml                           every model the scene's plan needs
+  splatlab precompute simple_lens --set max_coc_px=250 --scheduler tcp://10.0.0.5:8786
+
+A Dask cluster: `dask scheduler` on one machine, `dask worker tcp://HOST:8786 --nthreads 1
+--nworkers K` on each worker machine (same splatlab version; workers need not share files).
+Interrupt at any time (Ctrl-C, a killed job, a lost node): the same command resumes.
+"""
+
+
+def _add_scene(p):
+    p.add_argument("scene", type=Path, help="scene file (TOML), e.g. scenes/demo.toml")
+
+
+DESCRIPTIONS = {
+    "plan": "Read a scene file and print the effects it calls for (depth of field, motion, medium, "
+            "chromatic aberration, aperture), the PSF models that will be precomputed, the references "
+            "and runtime passes that will run, and what is skipped with the reason. Nothing is computed.",
+    "precompute": "Light-trace (Dr.Jit LLVM) and sparsify (LSR18 5.5) the spreadlet database of one "
+                  "registered PSF model (its defaults plus --set KEY=VALUE), or of every model a scene's plan "
+                  "needs. Each PSF is written as its own shard, atomically, so an interrupted job resumes "
+                  "where it stopped; cells run here, in --workers N local processes or on a Dask cluster "
+                  "(--scheduler), with the same database bitwise. The result is cached under .cache/db/ by "
+                  "a hash of the model, its configuration and the code: unchanged settings reuse it.",
+    "reference": "Render the Mitsuba 3 path-traced reference (through the scene's thin lens) and the "
+                 "pinhole labelled-pixel input EXR (R, G, B, A, Z and the splatlab.camera header).",
+    "render": "Render a labelled-pixel EXR (from `splatlab reference` or any renderer that writes R, G, B, "
+              "A, Z and a splatlab.camera header) with a spreadlet database on the OpenCL device, or "
+              "with --method polygon exactly with a flat polygonal aperture (MHU21; no database): each "
+              "pixel spreads over the rasterised polygon at its |CoC| from Z and the thin-lens header. "
+              "Any model's database works: combined (depth of field + motion) reads the channels "
+              "motion.X, motion.Y (pixels over the shutter, Y up); each pixel's PSF is turned as the "
+              "database's symmetries say (motion direction, side of the focal plane, azimuth).",
+    "report": "The whole job for one scene: plan, labelled-pixel input and Mitsuba reference, PSF "
+              "databases, every runtime method, then SSIM/PSNR against the reference and timings in "
+              "reports/<scene>/index.html and report.json. Every stage is cached by content hash.",
+    "demo": "Run `splatlab report` on the embedded default scene scenes/demo.toml (1024x1024, 85 mm lens "
+            "with large bokeh) and print where the report is. This is what `make demo` runs.",
+    "bench": "Benchmarks written as JSON under reports/bench/ (with machine and versions). Methods are "
+             "compared as ratios measured in the same run, since the machine is shared and noisy.",
+    "db": "Tools for spreadlet database files (.spdb).",
+    "info": "Print a database's model, PSF space, sample and spreadlet counts, mean sparsity and "
+            "similarity, fast-track count and size as JSON, after verifying its format and checksum.",
+    "doctor": "Check the Python packages, Dr.Jit's LLVM backend (needs LLVM >= 16), the Mitsuba variant and "
+              "the OpenCL device; print what is missing and the command that installs it. Exit 1 if "
+              "anything is missing.",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="splatlab", formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
+        description="Cinematic depth of field, fast and provably right: Dr.Jit light-traced PSFs, "
+                    "sparse Laplacian spreadlets (LSR18), an OpenCL splatting runtime and Mitsuba 3 "
+                    "references.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("plan", description=DESCRIPTIONS["plan"], help="print the effects a scene calls for and what will run or be skipped")
+    _add_scene(p)
+
+    p = sub.add_parser("precompute", description=DESCRIPTIONS["precompute"],
+                       help="light-trace and sparsify a PSF model's database (or those a scene needs)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog=PRECOMPUTE_EPILOG)
+    p.add_argument("target", metavar="MODEL|SCENE",
+                   help="a registered PSF model name (e.g. simple_lens) or a scene file (TOML)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
+                   help="override a model setting (repeatable; TOML values: 64, 2.5, true, [2, 1], circle)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=1, metavar="N",
+                       help="local worker processes, each tracing whole cells (default 1)")
+    where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help="run the cells on this Dask distributed scheduler's workers")
+    p.add_argument("--threads", type=int, metavar="T", help="Dr.Jit threads per worker process "
+                   "(default: cores / workers; with --scheduler, a host's cores / its worker processes)")
+    p.add_argument("--out", type=Path, help="copy the database here too (it is always cached by content hash)")
+    p.add_argument("--atlas", type=Path, metavar="DIR", help="write the PSF atlas (PNG) and LSR18 Table 1 "
+                   "(table.md, table.json) of each database to DIR/<model>/")
+    p.add_argument("--force", action="store_true", help="rebuild even when a database with this hash exists")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    p = sub.add_parser("reference", description=DESCRIPTIONS["reference"], help="render the Mitsuba reference and the pinhole labelled-pixel input")
+    _add_scene(p)
+    p.add_argument("--out-dir", type=Path, help="write reference.exr and input.exr here "
+                   "(default reports/<scene>/)")
+
+    p = sub.add_parser("render", description=DESCRIPTIONS["render"], help="render a labelled-pixel EXR with a spreadlet database")
+    p.add_argument("input", type=Path, help="labelled-pixel EXR: R,G,B,A,Z and the splatlab.camera header")
+    p.add_argument("--db", type=Path, help="spreadlet database (splatlab precompute); needed by every "
+                   "method but polygon")
+    methods = runtime_methods()
+    p.add_argument("--method", choices=list(methods), default="spreadlets",
+                   help="; ".join(f"{name}: {summary}" for name, summary in methods.items())
+                        + " (default: spreadlets)")
+    p.add_argument("--aperture", metavar="NAME",
+                   help="polygon: built-in shape (hexagon, octagon, dodecagon, hexadecagon, heart, "
+                        "clover, star; default: the camera header's iris, else hexagon)")
+    p.add_argument("--layers", type=int, metavar="N",
+                   help="polygon: occlusion with N global depth layers (LSR18), from the EXR's "
+                        "layerN.* channels when it has them, else from its flat image")
+    p.add_argument("--directions", type=int, default=2, metavar="M",
+                   help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
+    p.add_argument("--edges", type=int, metavar="N",
+                   help="polygon: most edges of the rectified aperture (default: its corners, <= 16)")
+    p.add_argument("--out", type=Path, required=True, help="output EXR (R, G, B)")
+    p.add_argument("--camera", type=Path, help="camera TOML ([camera] table) overriding the EXR header")
+
+    p = sub.add_parser("report", description=DESCRIPTIONS["report"], help="the whole job for a scene: precompute, references, methods, report")
+    _add_scene(p)
+    p.add_argument("--out-dir", type=Path, help="report directory (default reports/<scene name>/)")
+    p.add_argument("--baseline", type=Path, help="report.json to check for regressions (exit 1 if any)")
+
+    sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")
+
+    p = sub.add_parser("bench", description=DESCRIPTIONS["bench"], help="benchmarks; JSON under reports/bench/")
+    p.add_argument("what", choices=list(BENCHES),
+                   help="runtime: every runtime pass of the scene's plan (default the demo: spreadlets vs "
+                        "Splat vs Filter at 1024^2), times, SSIM and kernel throughput; precompute: M rays/s "
+                        "per PSF model, and (unless --no-build) the wall time to build each model's "
+                        "database at default settings, LSR18 Table 1 and a PSF atlas per model; polygon: "
+                        "MHU21 exact polygonal bokeh (time vs radius, against brute force / Laplacian / "
+                        "dx dy, uniform blur vs FFT; not part of all); rotation: the cost of per-pixel PSF "
+                        "rotation, spreadlets with a constant and a per-pixel angle over without (512^2; "
+                        "not part of all); all: precompute and runtime")
+    p.add_argument("--quick", action="store_true",
+                   help="polygon: small sizes only (a smoke run in seconds)")
+    p.add_argument("--scene", type=Path, default=DEMO_SCENE, help="scene to benchmark (default: demo)")
+    p.add_argument("--repeats", type=int, default=5, help="timed repetitions after warm-up (default 5)")
+    p.add_argument("--models", metavar="NAME[,NAME...]",
+                   help="precompute: only these registered models (default: all)")
+    p.add_argument("--no-build", action="store_true",
+                   help="precompute: measure rays/s only, skip the (minutes-long) database builds")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="precompute: local worker processes for the database builds (default 1)")
+
+    p = sub.add_parser("db", description=DESCRIPTIONS["db"], help="spreadlet database tools")
+    dbsub = p.add_subparsers(dest="db_command", required=True, metavar="DB_COMMAND")
+    q = dbsub.add_parser("info", description=DESCRIPTIONS["info"], help="summarise a database and verify its checksum")
+    q.add_argument("file", type=Path)
+
+    sub.add_parser("doctor", description=DESCRIPTIONS["doctor"], help="Dr.Jit backend and LLVM, PoCL device, what is missing and how to install it")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    from . import commands
+
+    handler = getattr(commands, "cmd_" + args.command)
+    try:
+        return int(handler(args) or 0)
+    except InputError as exc:
+        print(f"splatlab {args.command}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except ModuleNotFoundError as exc:
+        if (exc.name or "").split(".")[0] not in LAB_EXTRA:
+            raise
+        print(f"splatlab {args.command}: error: this command needs splatlab's lab extra (no module "
+              f"{exc.name!r}); install it with `pip install 'splatlab[lab]'` (the base install has "
+              "the runtime: `splatlab render` and `splatlab db info`)", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # e.g. `splatlab db info X | head`: the reader left, nothing to report
+        sys.stderr.close()
+        return 0
+    except KeyboardInterrupt:
+        print(f"splatlab {args.command}: interrupted; finished shards and caches are kept, "
+              "run the command again to resume", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

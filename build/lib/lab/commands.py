@@ -1,0 +1,211 @@
+"""Implementations of the ``splatlab`` subcommands (argument parsing lives in :mod:`lab.cli`)."""
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+from .errors import UserError
+
+
+def _say(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def cmd_plan(args) -> int:
+    from .pipeline import load_scene_and_plan
+
+    _, plan = load_scene_and_plan(args.scene)
+    print(plan.describe())
+    return 0
+
+
+def _scene_models(scene_path) -> list:
+    """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC range)."""
+    from .pipeline import inputs_and_reference, load_scene_and_plan, model_table
+    from .psf_tracing.models import load_model
+
+    scene, plan = load_scene_and_plan(scene_path)
+    if not plan.psf_models:
+        return []
+    image, _, _ = inputs_and_reference(scene, plan)
+    return [load_model(name, model_table(scene, name, image), f"{scene.source} [psf.{name}]")
+            for name in plan.psf_models]
+
+
+def cmd_precompute(args) -> int:
+    from .precompute import precompute
+    from .precompute.executors import check_scheduler, check_workers
+    from .precompute.target import load_target_model, resolve_target
+
+    check_workers(args.workers)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    target = resolve_target(args.target)
+    if target.kind == "model":
+        models = [load_target_model(target.name, args.sets)]
+    else:
+        if args.sets:
+            raise UserError(f"--set with scene {target.path}: --set configures a model name; edit the "
+                            "scene's [psf.<model>] table instead")
+        models = _scene_models(target.path)
+        if not models:
+            print(f"{target.path}: the plan needs no PSF database (see `splatlab plan {target.path}`)")
+            return 0
+        if args.out and len(models) > 1:
+            raise UserError(f"--out {args.out}: the scene needs {len(models)} databases; drop --out "
+                            "(each is cached under .cache/db/) or precompute one model by name")
+    for model in models:
+        r = precompute(model, force=args.force, progress=not args.quiet, workers=args.workers,
+                       scheduler=args.scheduler, threads=args.threads)
+        if r.reused:
+            state = "reused"
+        else:
+            pace = f", {r.rays / r.trace_seconds / 1e6:.1f} M rays/s per worker" if r.trace_seconds else ""
+            state = f"built in {r.seconds:.1f} s: {r.cells} PSFs on {r.executor}{pace}"
+        print(f"{model.name}: {r.path} ({state})")
+        if args.out:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(r.path, args.out)
+            print(f"{model.name}: copied to {args.out}")
+        if args.atlas:
+            from runtime_cl.psf.database import SpreadletDatabase
+
+            from .report.atlas import write_atlas
+
+            written = write_atlas(SpreadletDatabase.load(r.path), args.atlas / model.name)
+            print(f"{model.name}: atlas {written.png}, table {written.markdown}")
+    return 0
+
+
+def cmd_reference(args) -> int:
+    from .exr_io import write_labelled, write_rgb
+    from .pipeline import default_out_dir, inputs_and_reference, load_scene_and_plan
+
+    scene, plan = load_scene_and_plan(args.scene)
+    out = args.out_dir or default_out_dir(scene)
+    out.mkdir(parents=True, exist_ok=True)
+    image, reference, _ = inputs_and_reference(scene, plan)
+    write_labelled(out / "input.exr", image)
+    write_rgb(out / "reference.exr", reference)
+    print(f"input (labelled pixels): {out / 'input.exr'}\nreference: {out / 'reference.exr'}")
+    return 0
+
+
+def _render_aperture(args, image):
+    """The rectified polygon a pass that draws the aperture gets: ``--aperture NAME``, else the
+    camera header's iris, else the hexagon."""
+    from .polygon_aperture import polygon_aperture
+    from .runtime_passes import camera_aperture
+
+    if args.aperture is None:
+        iris = camera_aperture(image, f"{args.input} camera", args.directions, args.edges)
+        if iris is not None:
+            return iris
+    return polygon_aperture(args.aperture or "hexagon", args.directions, args.edges)
+
+
+def _check_render_options(args, cls) -> None:
+    from runtime_cl.passes.registry import get_pass, pass_names
+
+    if args.layers is not None and args.layers < 1:
+        raise UserError(f"--layers {args.layers}: the number of depth layers must be >= 1 (1 splats "
+                        "everything into one layer, without occlusion), e.g. --layers 8")
+    if args.layers is not None and not cls.layered:
+        layered = " / ".join(n for n in pass_names() if get_pass(n).layered)
+        raise UserError(f"--layers {args.layers}: depth layers are for --method {layered}; drop --layers "
+                        f"with --method {args.method}")
+    if cls.database_models != () and args.db is None:
+        free = " / ".join(n for n in pass_names() if get_pass(n).database_models == ())
+        raise UserError(f"--db: --method {args.method} needs a spreadlet database (splatlab precompute "
+                        f"MODEL --out FILE); only --method {free} work without one")
+    if cls.database_models == () and args.db is not None:
+        raise UserError(f"--db {args.db}: --method {args.method} uses no PSF database; drop --db")
+    if not cls.draws_aperture and args.aperture is not None:
+        raise UserError(f"--aperture {args.aperture}: --method {args.method} draws its database's PSFs; "
+                        "--aperture is for a method that draws the aperture (--method polygon)")
+
+
+def cmd_render(args) -> int:
+    from runtime_cl.passes.registry import get_pass, run_pass
+    from runtime_cl.psf.database import SpreadletDatabase
+
+    from .exr_io import write_rgb
+    from .runtime_passes import aperture_info, frame_of, read_input, runtime_camera
+
+    cls = get_pass(args.method)
+    _check_render_options(args, cls)
+    image = read_input(args.input, args.camera)
+    db = None if args.db is None else SpreadletDatabase.load(args.db)
+    options, said = {}, ""
+    if args.layers is not None:
+        options["layers"] = args.layers
+        options["layered_input"] = cls.layered and bool(image.layers(str(args.input)))
+    if cls.draws_aperture:
+        aperture = _render_aperture(args, image)
+        options["aperture"] = aperture.splatter
+        a = aperture_info(aperture)
+        said = (f" ({aperture.name}, {aperture.edges} edges, D m={aperture.directions_m}; "
+                f"+{a['table_s']:.2f} s radius table, {a['rectify_s']:.2f} s rectification)")
+    frame = frame_of(image, str(args.input), db, options.get("layered_input", False))
+    rendered, timing = run_pass(args.method, frame, runtime_camera(image, f"{args.input} camera"), db, **options)
+    write_rgb(args.out, rendered[..., :3])
+    c = timing.counts
+    if "max_radius_px" in c:
+        said += f", radius <= {c['max_radius_px']:.1f} px"
+    if "used_layers" in c:
+        said += (f", {c['used_layers']} of {c['depth_layers']} depth layers used "
+                 f"({'layered' if options['layered_input'] else 'flat'} input)")
+    print(f"{args.out}: {args.method}{said}: {timing.time_ms:.1f} ms ({timing.device_ms:.1f} ms device, "
+          f"{timing.transfer_ms:.1f} ms transfers, {timing.host_ms:.1f} ms host; +{timing.compile_ms:.0f} ms "
+          "set-up and kernel builds)")
+    return 0
+
+
+def _report(scene_path, out_dir, baseline) -> int:
+    from .pipeline import run_report
+
+    report = run_report(scene_path, out_dir, baseline)
+    out = Path(out_dir) if out_dir else Path("reports") / report["scene"]["name"]
+    for name, m in report["methods"].items():
+        print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
+    print(f"report: {out.resolve() / 'index.html'}\n        {out.resolve() / 'report.json'}")
+    if report.get("regressions"):
+        _say("regressions against the baseline:\n  " + "\n  ".join(report["regressions"]))
+        return 1
+    return 0
+
+
+def cmd_report(args) -> int:
+    return _report(args.scene, args.out_dir, args.baseline)
+
+
+def cmd_demo(args) -> int:
+    from .cli import DEMO_SCENE
+
+    return _report(DEMO_SCENE, None, None)
+
+
+def cmd_bench(args) -> int:
+    from .bench import run_bench
+
+    for path in run_bench(args.what, args.scene, args.repeats, models=args.models,
+                          build=not args.no_build, workers=args.workers, quick=args.quick):
+        print(f"benchmark: {path}")
+    return 0
+
+
+def cmd_db(args) -> int:
+    from runtime_cl.psf.database import SpreadletDatabase
+
+    db = SpreadletDatabase.load(args.file)
+    print(json.dumps(db.info(), indent=2))
+    return 0
+
+
+def cmd_doctor(args) -> int:
+    from .doctor import diagnose
+
+    problems = diagnose(print)
+    return 1 if problems else 0

@@ -1,0 +1,178 @@
+"""Which effects a scene calls for, and so what to precompute, render and run (``splatlab plan``).
+
+Each camera model registers a rule that fills in its part of the plan; effects the scene files
+cannot express yet (motion, media, glass) are listed as skipped with the reason, so a plan always
+says what it will *not* do. A thin lens with a polygonal iris runs MHU21's exact polygon splatting
+(single layer, depth layers, layered input) against a Mitsuba reference through that iris.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class Step:
+    """One thing to produce (a reference, an input) or to skip: ``name`` and a one-line ``detail``."""
+
+    name: str
+    detail: str
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What :func:`make_plan` decided for one scene.
+
+    Attributes
+    ----------
+    scene : str
+        Scene name.
+    source : str
+        The scene file.
+    resolution : (int, int)
+        Width, height in pixels.
+    effects : dict of str -> str
+        ``dof`` ("thin" | "none"), ``motion``, ``medium``, ``chromatic``, ``aperture``.
+    psf_models : tuple of str
+        PSF models to precompute (names in the PSF model registry), e.g. ``("simple_lens",)``.
+    references : tuple of Step
+        Ground-truth renders, e.g. ``mitsuba_thinlens``; for a pinhole, ``pinhole`` itself.
+    inputs : tuple of Step
+        Labelled-pixel inputs for the runtime.
+    runtime_passes : tuple of str
+        Runtime passes in order, e.g. ``("spreadlets", "splat", "filter")``, ``("polygon",
+        "polygon_layers", "polygon_layered_input")`` or ``("identity",)``.
+    skipped : tuple of Step
+        What is not done, with the reason.
+    """
+
+    scene: str
+    source: str
+    resolution: tuple[int, int]
+    effects: dict[str, str]
+    psf_models: tuple[str, ...]
+    references: tuple[Step, ...]
+    inputs: tuple[Step, ...]
+    runtime_passes: tuple[str, ...]
+    skipped: tuple[Step, ...]
+
+    def describe(self) -> str:
+        """Human-readable plan, one item per line."""
+        w, h = self.resolution
+        lines = [f"plan for scene {self.scene!r} ({self.source}), {w}x{h}", "effects:"]
+        lines += [f"  {k:<10} {v}" for k, v in self.effects.items()]
+        lines.append("PSF models to precompute: " + (", ".join(self.psf_models) or "none"))
+        for title, steps in (("references", self.references), ("inputs", self.inputs)):
+            lines.append(f"{title}:")
+            lines += [f"  {s.name:<18} {s.detail}" for s in steps]
+        lines.append("runtime passes: " + " -> ".join(self.runtime_passes))
+        lines.append("skipped:" if self.skipped else "skipped: nothing")
+        lines += [f"  {s.name}: {s.detail}" for s in self.skipped]
+        return "\n".join(lines)
+
+
+def _dof(scene: Scene) -> str:
+    lens = scene.camera.thin_lens()
+    return (f"thin ({lens.focal_length_mm:g} mm f/{lens.f_number:.3g}, "
+            f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)")
+
+
+def _thin(scene: Scene) -> dict:
+    if scene.camera.iris() is not None:
+        return _thin_iris(scene)
+    r = scene.render
+    return {
+        "dof": _dof(scene),
+        "aperture": "circle",
+        "psf_models": ("simple_lens",),
+        "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens, "
+                                                f"{r.reference_spp} spp, max depth {r.max_depth}"),),
+        "runtime_passes": ("spreadlets", "splat", "filter"),
+        "skipped": (),
+    }
+
+
+def _thin_iris(scene: Scene) -> dict:
+    iris, r = scene.camera.iris(), scene.render
+    passes = ("polygon", "polygon_layers") + (("polygon_layered_input",) if scene.input_layers() else ())
+    skipped = [Step("PSF precompute and sparsify", "MHU21's flat polygon kernel is exact: no PSF database"),
+               Step("spreadlets, splat, filter", "their database traces the round aperture; the iris "
+                                                 "runs through the polygon passes")]
+    if not iris.point_symmetric:
+        skipped.append(Step("180-degree turn of the bokeh in front of the focus plane",
+                            f"the polygon runtime draws the upright iris everywhere ({iris.blades} blades "
+                            "are not point-symmetric)"))
+    if not scene.input_layers():
+        skipped.append(Step("polygon_layered_input", "no [[shapes]] has a layer key, so there is no "
+                                                     "layered input"))
+    return {
+        "dof": _dof(scene),
+        "aperture": (f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, "
+                     f"rounding {iris.rounding:g})"),
+        "psf_models": (),
+        "references": (Step("mitsuba_polygon_lens", f"Mitsuba path trace through the thin lens with the "
+                                                    f"{iris.blades}-blade iris (lab.reference.polygon_lens), "
+                                                    f"{r.reference_spp} spp, max depth {r.max_depth}"),),
+        "runtime_passes": passes,
+        "skipped": tuple(skipped),
+    }
+
+
+def _pinhole(scene: Scene) -> dict:
+    r = scene.render
+    return {
+        "dof": "none",
+        "aperture": "none (pinhole)",
+        "psf_models": (),
+        "references": (Step("pinhole", f"the pinhole render is the reference "
+                                       f"({r.reference_spp} spp, max depth {r.max_depth})"),),
+        "runtime_passes": ("identity",),
+        "skipped": (Step("PSF precompute and sparsify", "a pinhole camera has no defocus: every PSF "
+                                                        "is a delta"),),
+    }
+
+
+# One rule per camera model (thick lenses add theirs).
+DOF_RULES = {"thin": _thin, "pinhole": _pinhole}
+
+
+def make_plan(scene: Scene) -> Plan:
+    """Decide the effects, PSF models, references, inputs and runtime passes for ``scene``.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene (:func:`lab.scene.load_scene`).
+
+    Returns
+    -------
+    Plan
+        ``plan.describe()`` is the text of ``splatlab plan SCENE``.
+    """
+    rule = DOF_RULES[scene.camera.model](scene)
+    r = scene.render
+    skipped = list(rule["skipped"]) + [
+        Step("motion blur", "the scene has no moving objects or camera motion"),
+        Step("participating medium", "the scene has no medium"),
+        Step("chromatic aberration", "the camera has no glass (thin lens or pinhole)"),
+    ]
+    if rule["aperture"] == "circle":
+        skipped.append(Step("polygonal bokeh (MHU21)", "the thin-lens aperture is a circle"))
+    unused = sorted(set(scene.psf) - set(rule["psf_models"]))
+    if unused:
+        skipped.append(Step(f"[psf.{', psf.'.join(unused)}]", "given in the scene but not needed by "
+                                                             "this camera"))
+    effects = {"dof": rule["dof"], "motion": "none", "medium": "none", "chromatic": "none",
+               "aperture": rule["aperture"]}
+    inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
+                                       "centres, camera in the EXR header"),)
+    layers = scene.input_layers()
+    if layers:
+        inputs += (Step("layered_labelled", f"layer0..{len(layers) - 1}.R,G,B,A,Z ({r.input_spp} spp): "
+                                            "the [[shapes]] layer keys, untagged shapes and sky last"),)
+        if not any(p.startswith("polygon") for p in rule["runtime_passes"]):
+            skipped.append(Step("layered input in the runtime", "only the polygon passes read layers"))
+    return Plan(scene=scene.name, source=scene.source, resolution=scene.info.resolution,
+                effects=effects, psf_models=rule["psf_models"], references=rule["references"],
+                inputs=inputs, runtime_passes=rule["runtime_passes"], skipped=tuple(skipped))

@@ -1,0 +1,105 @@
+"""Rectified apertures for the runtime's polygon pass (``splatlab render --method polygon``,
+reports, ``splatlab bench polygon``).
+
+A built-in aperture shape (:mod:`lab.sparsify.polygon_shapes`) or a camera's iris
+(:class:`lab.optics.iris.Iris`, ``[camera] aperture``) is rectified once per run (MHU21 section 4,
+:func:`lab.sparsify.polygon.rectify`) and handed to the runtime's exact splatter
+(:class:`runtime_cl.polygon.splat.PolygonSplatter`), which :class:`runtime_cl.passes.polygon.
+PolygonPass` draws at every pixel's thin-lens ``|CoC|``.
+
+The kernel is the iris as it images behind the focus plane; in front of it the PSF is rotated
+by 180 degrees, which the runtime does not do: exact for point-symmetric irises (even blade
+counts, the built-in regular shapes).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+
+from .errors import UserError
+
+__all__ = ["PolygonAperture", "polygon_aperture", "iris_aperture", "default_edges"]
+
+
+def default_edges(name: str) -> int:
+    """Edge budget N when none is given: the shape's own corners, at most 16 (heart, clover)."""
+    from .sparsify.polygon_shapes import shape
+
+    return min(len(shape(name)), 16)
+
+
+@dataclass
+class PolygonAperture:
+    """A rectified aperture and its splatter.
+
+    Attributes
+    ----------
+    name : str
+        Built-in shape name.
+    directions_m : int
+        D = :func:`lab.sparsify.polygon.direction_set` (m).
+    edges : int
+        N, the rectification's edge budget.
+    splatter : runtime_cl.polygon.splat.PolygonSplatter
+    rectify_s : float
+        Wall time of the rectification (graph construction + traversal), seconds.
+    """
+
+    name: str
+    directions_m: int
+    edges: int
+    splatter: object
+    rectify_s: float
+
+
+def polygon_aperture(name: str = "hexagon", directions_m: int = 2, edges: int | None = None,
+                     device=None) -> PolygonAperture:
+    """Rectify the built-in shape ``name`` and build its splatter.
+
+    Parameters
+    ----------
+    name : str, default "hexagon"
+        One of :data:`lab.sparsify.polygon_shapes.SHAPES`.
+    directions_m : int, default 2
+        Edge directions are all reduced (run, rise) with components up to m (MHU21: m = 2).
+    edges : int, optional
+        Most edges of the rectified polygon (default :func:`default_edges`).
+    device : runtime_cl.device.opencl.Device, optional
+
+    Raises
+    ------
+    UserError
+        Unknown shape name, bad m or N (the messages list the choices or the smallest N).
+    """
+    from .sparsify.polygon_shapes import SHAPES, shape
+
+    if name not in SHAPES:
+        raise UserError(f"--aperture {name!r}: unknown shape; choose one of {', '.join(SHAPES)}")
+    return _rectified(name, shape(name), directions_m, default_edges(name) if edges is None else edges,
+                      device)
+
+
+def iris_aperture(iris, directions_m: int = 2, edges: int | None = None, device=None) -> PolygonAperture:
+    """Rectify a camera's polygonal iris (as it images behind the focus plane) and build its splatter.
+
+    Parameters
+    ----------
+    iris : lab.optics.iris.Iris
+    directions_m, edges, device
+        As for :func:`polygon_aperture`; ``edges`` defaults to the outline's vertices, at most 16.
+    """
+    outline = iris.outline() * [1.0, -1.0]        # lens plane (y up) -> image (y down), upright
+    n = min(len(outline), 16) if edges is None else edges
+    return _rectified(f"iris{iris.blades}", outline, directions_m, n, device)
+
+
+def _rectified(name, outline, directions_m, edges, device) -> PolygonAperture:
+    from runtime_cl.polygon.splat import PolygonSplatter
+
+    from .sparsify.polygon import direction_set, rectify
+
+    start = time.perf_counter()
+    unit, dirs = rectify(outline, direction_set(directions_m), edges).unit()
+    took = time.perf_counter() - start
+    return PolygonAperture(name, directions_m, edges, PolygonSplatter(unit, dirs, device=device), took)

@@ -1,0 +1,161 @@
+"""The unit of precompute work: trace one cell of a PSF model, sparsify it, make its shard.
+
+:func:`build_cell` does the work on a model instance. :func:`run_cell` is the same work as a
+task any executor can ship to another process or machine: it carries the model by name and
+configuration (a picklable :class:`CellJob`), rebuilds the model once per process, sets the
+Dr.Jit thread count the job chose for that process, and refuses to run if the worker's code
+differs from the job's (same hash, different code would silently mix results).
+
+Determinism: the tracer seeds every launch from (seed, cell, launch) and counts hits in
+integers; the sparsifier is seeded with ``seed * 1_000_003 + cell``. A cell's shard is therefore
+bitwise the same whichever process, thread count or order computes it.
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lab.errors import UserError
+
+from .naming import source_digest
+from .shards import summary, write_shard
+
+__all__ = ["dense_crop", "landed_rays", "build_cell", "CellJob", "run_cell", "set_threads"]
+
+
+def dense_crop(psf: np.ndarray) -> np.ndarray:
+    """The PSF cropped to the smallest (2r+1)^2 square around its centre holding every nonzero pixel."""
+    c = psf.shape[0] // 2
+    ys, xs = np.nonzero(np.any(psf != 0, axis=2))
+    r = int(max(np.abs(ys - c).max(), np.abs(xs - c).max())) if len(ys) else 0
+    return psf[c - r:c + r + 1, c - r:c + r + 1]
+
+
+def landed_rays(traced):
+    """The hit count behind each channel of a traced PSF (one int if monochrome), for the
+    sparsifier's noise model: each channel is a histogram normalised by the hits it received,
+    which excludes vignetted rays and rays that picked another channel."""
+    landed = [int(n) for n in traced.counts.sum(axis=(0, 1))]
+    return landed[0] if len(landed) == 1 else landed
+
+
+def build_cell(model, cell: int) -> dict:
+    """Trace and sparsify one cell of ``model``; the arrays of its shard (see :mod:`.shards`).
+
+    Parameters
+    ----------
+    model : PSFModel
+        A configured model; its config supplies ``seed`` and ``density``.
+    cell : int
+        Cell index in ``0 .. model.grid.size - 1``.
+    """
+    from lab.sparsify.spreadlets import sparsify
+
+    cfg = model.config
+    t0 = time.perf_counter()
+    traced = model.trace_checked(cell, seed=cfg.seed)
+    t1 = time.perf_counter()
+    psf = traced.psf
+    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced))
+    t2 = time.perf_counter()
+    stats = {k: float(v) for k, v in sp.stats.items()}
+    return {"cell": np.array(cell, np.int64), "points": sp.points, "values": sp.values,
+            "fast_track": np.array(sp.fast_track), "dense": dense_crop(psf),
+            "stats": np.array(json.dumps(stats, sort_keys=True)), "rays": np.array(traced.n_rays, np.int64),
+            "trace_s": np.array(t1 - t0), "sparsify_s": np.array(t2 - t1)}
+
+
+@dataclass(frozen=True)
+class CellJob:
+    """What a worker needs to compute any cell of one job (picklable).
+
+    Attributes
+    ----------
+    model : str
+        Registered model name.
+    config : dataclass
+        The model's frozen configuration.
+    code : str
+        :func:`~lab.precompute.naming.source_digest` of the job's code.
+    threads : int or dict or None
+        Dr.Jit threads for the worker process: one number for every worker, a dict from Dask
+        worker address to number, or None to keep Dr.Jit's default (all cores).
+    """
+
+    model: str
+    config: object
+    code: str
+    threads: int | dict | None = None
+
+
+_MODELS: dict = {}
+
+
+def _model(job: CellJob):
+    """This process's instance of the job's model (built once; compiled kernels are reused)."""
+    key = (job.model, repr(job.config))
+    if key not in _MODELS:
+        from lab.psf_tracing.models import get_model
+
+        _MODELS.clear()
+        _MODELS[key] = get_model(job.model)(job.config)
+    return _MODELS[key]
+
+
+def _threads_for_this_process(threads):
+    if isinstance(threads, dict):
+        try:
+            from distributed import get_worker
+
+            return threads.get(get_worker().address)
+        except (ImportError, ValueError):
+            return None
+    return threads
+
+
+def set_threads(n: int | None) -> None:
+    """Set Dr.Jit's thread pool to ``n`` threads (None: leave it)."""
+    if n is None:
+        return
+    import drjit as dr
+
+    if dr.thread_count() != n:
+        dr.set_thread_count(int(n))
+
+
+def run_cell(job: CellJob, cell: int, folder: str | None = None) -> dict:
+    """Compute cell ``cell`` of ``job`` in this process.
+
+    Parameters
+    ----------
+    job : CellJob
+        The job's model, configuration, code digest and thread policy.
+    cell : int
+        The cell to compute.
+    folder : str, optional
+        Write the shard there (the worker shares the job's file system) and return only
+        :func:`~lab.precompute.shards.summary`; None returns the whole shard for the caller
+        to write (workers on other machines).
+
+    Raises
+    ------
+    UserError
+        The worker runs different splatlab code than the job, or the model rejects the cell.
+    """
+    mine = source_digest(job.model, cached=True)
+    if mine != job.code:
+        import socket
+
+        raise UserError(f"precompute worker on {socket.gethostname()}: its splatlab code (digest "
+                        f"{mine[:12]}) differs from the job's ({job.code[:12]}); install the same "
+                        "splatlab version on every worker and restart them")
+    set_threads(_threads_for_this_process(job.threads))
+    shard = build_cell(_model(job), int(cell))
+    if folder is None:
+        return shard
+    write_shard(Path(folder), shard)
+    return summary(shard)

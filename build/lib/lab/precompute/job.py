@@ -1,0 +1,167 @@
+"""A precompute job: light-trace every cell of a PSF model, sparsify it, write the database.
+
+Each cell's result is written as its own shard, atomically (:mod:`.shards`), under
+``<cache>/precompute/<model>-<hash>/``: an interrupted job resumes with the missing shards and
+never leaves a corrupt file. Cells run in this process, in local worker processes or on a Dask
+cluster (:mod:`.executors`), heaviest first (fewest stragglers at the end); the database is the
+same bitwise either way. The final step consolidates the shards in cell order into one database
+(:mod:`.consolidate`), named by content hash (:mod:`.naming`): an unchanged configuration is
+reused, a changed one rebuilt.
+"""
+from __future__ import annotations
+
+import shutil
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from tqdm import tqdm
+
+from runtime_cl.psf.database import SpreadletDatabase
+from runtime_cl.errors import InputError
+
+from lab.errors import UserError
+
+from .cell import CellJob
+from .consolidate import consolidate
+from .executors import (check_scheduler, check_workers, connect, run_dask, run_processes, run_serial,
+                        usable_cores)
+from .naming import content_hash, database_path, shard_dir, source_digest
+from .shards import shard_ok
+
+__all__ = ["PrecomputeResult", "precompute"]
+
+
+@dataclass
+class PrecomputeResult:
+    """What a precompute job did.
+
+    Attributes
+    ----------
+    path : Path
+        The database file (under ``<cache>/db/``).
+    reused : bool
+        True when a database with this content hash existed and nothing was computed.
+    seconds : float
+        Wall time of the whole call.
+    rays : int
+        Rays traced by this call (0 when reused; cells resumed from shards are not counted).
+    trace_seconds, sparsify_seconds : float
+        Time spent tracing and sparsifying, summed over every worker.
+    cells : int
+        Cells computed by this call (the rest were reused shards).
+    executor : str
+        ``"serial"``, ``"processes"`` or ``"dask"``.
+    """
+
+    path: Path
+    reused: bool
+    seconds: float
+    rays: int
+    trace_seconds: float
+    sparsify_seconds: float
+    cells: int = 0
+    executor: str = "serial"
+
+
+def _check_threads(threads) -> int | None:
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise UserError(f"--threads {threads!r}: must be an integer >= 1 (Dr.Jit threads per worker)")
+    return threads
+
+
+def _reusable(out: Path, name: str) -> bool:
+    if not out.exists():
+        return False
+    try:
+        SpreadletDatabase.load(out, expect_model=name)  # validates the checksum
+    except InputError:
+        return False  # a damaged cache entry: build it again (the new file replaces it atomically)
+    return True
+
+
+def precompute(model, *, force: bool = False, progress: bool = True, workers: int = 1,
+               scheduler: str | None = None, threads: int | None = None) -> PrecomputeResult:
+    """Build (or reuse) the spreadlet database of ``model``.
+
+    Parameters
+    ----------
+    model : PSFModel
+        A configured, registered model (``lab.psf_tracing.models.load_model``).
+    force : bool, default False
+        Rebuild even if a database with this content hash exists; discard old shards.
+    progress : bool, default True
+        Show a progress bar (rays done of the job's total, rays/s, ETA) on stderr.
+    workers : int, default 1
+        Local worker processes; 1 computes in this process.
+    scheduler : str, optional
+        Dask scheduler address (``tcp://HOST:PORT``): run the cells on that cluster instead.
+    threads : int, optional
+        Dr.Jit threads per worker process (default: cores / workers locally, cores of the host /
+        task slots on the host on Dask, all cores for a single local process).
+
+    Returns
+    -------
+    PrecomputeResult
+
+    Raises
+    ------
+    UserError
+        Bad ``workers``, ``scheduler`` or ``threads`` (before anything is traced), an
+        unreachable scheduler, or a cell the model rejects.
+    """
+    t_start = time.perf_counter()
+    check_workers(workers)
+    _check_threads(threads)
+    if scheduler is not None:
+        check_scheduler(scheduler)
+        if workers != 1:
+            raise UserError(f"--workers {workers} with --scheduler {scheduler}: choose one; the "
+                            "cluster's workers are started with `dask worker`")
+    code = source_digest(model.name)
+    digest = content_hash(model.name, model.config, code)
+    out = database_path(model.name, digest)
+    if not force and _reusable(out, model.name):
+        return PrecomputeResult(out, True, time.perf_counter() - t_start, 0, 0.0, 0.0)
+    folder = shard_dir(model.name, digest)
+    if force:
+        shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir(parents=True, exist_ok=True)
+
+    n = model.grid.size
+    cost = [model.rays_for_cell(c) for c in range(n)]
+    todo = sorted((c for c in range(n) if not shard_ok(folder, c)), key=lambda c: -cost[c])
+    client = connect(scheduler) if scheduler is not None and todo else None
+    if client is not None:
+        cells_iter = run_dask(CellJob(model.name, model.config, code, threads), folder, todo, client)
+        executor = "dask"
+    elif workers > 1 and len(todo) > 1:
+        per_worker = threads or max(1, usable_cores() // workers)
+        cells_iter = run_processes(CellJob(model.name, model.config, code, per_worker), folder, todo,
+                                   min(workers, len(todo)))
+        executor = "processes"
+    else:
+        cells_iter = run_serial(model, folder, todo, threads)
+        executor = "serial"
+
+    done_cost = sum(cost) - sum(cost[c] for c in todo)
+    rays = 0
+    trace_s = sparsify_s = 0.0
+    with tqdm(total=sum(cost), initial=done_cost, unit="ray", unit_scale=True, dynamic_ncols=True,
+              desc=f"precompute {model.name}", disable=not progress) as bar:
+        bar.set_postfix_str(f"PSF {n - len(todo)}/{n}")
+        try:
+            for k, s in enumerate(cells_iter, start=1):
+                rays += s["rays"]
+                trace_s += s["trace_s"]
+                sparsify_s += s["sparsify_s"]
+                bar.update(cost[s["cell"]])
+                bar.set_postfix_str(f"PSF {n - len(todo) + k}/{n}", refresh=False)
+        finally:
+            cells_iter.close()
+            if client is not None:
+                client.close()
+    consolidate(model, digest, folder, out)
+    shutil.rmtree(folder, ignore_errors=True)  # the database now holds everything
+    return PrecomputeResult(out, False, time.perf_counter() - t_start, rays, trace_s, sparsify_s,
+                            len(todo), executor)

@@ -1,0 +1,165 @@
+"""Config pieces shared by the PSF models: aperture keys, the canonical thin lens, value checks.
+
+The key groups are keyword-only dataclass mixins; a model's frozen config inherits them, so a
+scene's ``[psf.<model>]`` table has the same ``aperture*`` and ``lens_*`` keys for every model
+that uses them, validated in one place.
+
+Symmetry tags a model lists in ``symmetries`` (recorded in the spreadlet database) and what a
+runtime must do with them:
+
+``"rotation"``
+    The PSF is rotation invariant: no angle dimension, draw it as stored.
+``"coc_sign"``
+    The PSF space holds |CoC|; stored PSFs are those of points in front of the focal plane
+    (signed CoC < 0, the aperture rotated by 180 degrees). A point behind the focal plane
+    (CoC > 0) is drawn with the stored PSF rotated by 180 degrees about its centre.
+``"motion_direction"``
+    Traced for motion along the config's ``motion_direction_deg``; a pixel moving at angle
+    phi (counter-clockwise from image +x, y up) is drawn with the PSF rotated by
+    phi - motion_direction_deg (plus 180 degrees if ``"coc_sign"`` applies and CoC > 0).
+``"optical_axis"``
+    The optics are rotation symmetric about the optical axis, but the PSF varies across the
+    image: only pixels on the image's +x side of the centre are traced (reference direction 0),
+    indexed by their distance from the centre (eccentricity). A pixel at azimuth phi about the
+    image centre (counter-clockwise from image +x, y up) is drawn with the PSF rotated by phi.
+
+Rotations turn the PSF counter-clockwise as the image is viewed; the runtime
+(:mod:`runtime_cl.coords.maps`, ``Renderer.render(angle=...)``) takes the angle in radians.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from lab.errors import UserError
+from lab.optics.aperture import Aperture, get_aperture, make_aperture
+from lab.optics.thin_lens import ThinLens
+from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
+
+__all__ = ["ApertureKeys", "LensKeys", "check_number", "check_common", "whole_launches",
+           "SYMMETRY_TAGS"]
+
+SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "optical_axis")
+
+# config key -> the aperture class's parameter
+_APERTURE_PARAMS = {"aperture_blades": "blades", "aperture_rotation_deg": "rotation_deg",
+                    "aperture_rounding": "rounding", "aperture_image": "path",
+                    "aperture_image_sha256": "sha256"}
+
+
+def check_number(name: str, value, *, integer: bool = False, zero_ok: bool = False) -> None:
+    """UserError unless ``value`` is a finite number (an integer if ``integer``) > 0 (>= 0 if ``zero_ok``)."""
+    kinds = (int,) if integer else (int, float)
+    ok = (isinstance(value, kinds) and not isinstance(value, bool) and math.isfinite(value)
+          and (value >= 0 if zero_ok else value > 0))
+    if not ok:
+        what = "an integer" if integer else "a finite number"
+        raise UserError(f"{name} = {value!r}: must be {what} {'>= 0' if zero_ok else '> 0'}")
+
+
+def check_common(cfg) -> None:
+    """The keys every traced model has: samples, psf_resolution, ray counts, density, seed."""
+    check_number("density", cfg.density)
+    for name in ("samples", "psf_resolution", "rays_per_psf", "rays_per_pixel", "rays_per_launch"):
+        check_number(name, getattr(cfg, name), integer=True)
+    check_number("seed", cfg.seed, integer=True, zero_ok=True)
+    if cfg.rays_per_launch > MAX_RAYS_PER_LAUNCH:
+        raise UserError(f"rays_per_launch = {cfg.rays_per_launch}: at most {MAX_RAYS_PER_LAUNCH}")
+
+
+def whole_launches(n: int, rays_per_launch: int) -> int:
+    """``n`` rounded up to a whole number of launches."""
+    return -(-int(n) // rays_per_launch) * rays_per_launch
+
+
+@dataclass(frozen=True, kw_only=True)
+class ApertureKeys:
+    """Aperture keys of a model's config.
+
+    Parameters
+    ----------
+    aperture : str, default "circle"
+        Shape name (:func:`lab.optics.aperture.aperture_names`): circle, polygon, star, heart, image.
+    aperture_blades : int, optional
+        ``polygon`` only: blade count, >= 3 (default 6).
+    aperture_rotation_deg : float, optional
+        ``polygon`` only: counter-clockwise rotation in degrees (default 0: a corner up).
+    aperture_rounding : float, optional
+        ``polygon`` only: corner fillet radius as a fraction of the circumradius, in [0, 1]
+        (default 0 sharp; 1 is a circle).
+    aperture_image : str, optional
+        ``image`` only (required there): path of a PNG, bright = open.
+    aperture_image_sha256 : str, optional
+        ``image`` only: the file's SHA-256. Filled in from the file when omitted, so the
+        configuration (and its content hash) changes when the image does; when given, the file
+        must match it.
+    """
+
+    aperture: str = "circle"
+    aperture_blades: int | None = None
+    aperture_rotation_deg: float | None = None
+    aperture_rounding: float | None = None
+    aperture_image: str | None = None
+    aperture_image_sha256: str | None = None
+
+    def _aperture_params(self) -> dict:
+        cls = get_aperture(self.aperture)
+        takes = {f.name for f in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else set()
+        given = {k: getattr(self, k) for k in _APERTURE_PARAMS if getattr(self, k) is not None}
+        extra = sorted(k for k in given if _APERTURE_PARAMS[k] not in takes)
+        if extra:
+            fits = sorted(k for k, p in _APERTURE_PARAMS.items() if p in takes)
+            raise UserError(f"aperture = {self.aperture!r} does not use {extra}; remove them "
+                            f"(its keys: {fits or 'none'})")
+        if "path" in takes and "aperture_image" not in given:
+            raise UserError(f"aperture = {self.aperture!r} needs aperture_image = 'path/to/shape.png'")
+        return {_APERTURE_PARAMS[k]: v for k, v in given.items()}
+
+    def build_aperture(self) -> Aperture:
+        """The configured aperture (reads an image file once per call)."""
+        return make_aperture(self.aperture, **self._aperture_params())
+
+    def check_aperture(self) -> Aperture:
+        """Validate the aperture keys (in ``__post_init__``); record an image's digest."""
+        ap = self.build_aperture()
+        digest = getattr(ap, "digest", None)
+        if digest is not None and self.aperture_image_sha256 is None:
+            object.__setattr__(self, "aperture_image_sha256", digest)
+        return ap
+
+
+@dataclass(frozen=True, kw_only=True)
+class LensKeys:
+    """The canonical thin lens that makes a traced path physical (the PSFs in CoC space do not
+    depend on it beyond float rounding).
+
+    Parameters
+    ----------
+    lens_focal_length_mm : float, default 50
+    lens_f_number : float, default 2
+    lens_focus_distance_m : float, default 2
+    lens_sensor_width_mm : float, default 36
+    lens_width_px : int, default 1920
+        Image width in pixels across the sensor (sets the pixel size).
+    """
+
+    lens_focal_length_mm: float = 50.0
+    lens_f_number: float = 2.0
+    lens_focus_distance_m: float = 2.0
+    lens_sensor_width_mm: float = 36.0
+    lens_width_px: int = 1920
+
+    @property
+    def lens(self) -> ThinLens:
+        """The canonical thin lens."""
+        return ThinLens(focal_length_mm=self.lens_focal_length_mm, f_number=self.lens_f_number,
+                        focus_distance_m=self.lens_focus_distance_m,
+                        sensor_width_mm=self.lens_sensor_width_mm)
+
+    def check_lens(self) -> None:
+        check_number("lens_width_px", self.lens_width_px, integer=True)
+        try:
+            self.lens
+        except UserError as exc:
+            raise UserError(f"canonical lens (lens_* keys): {exc}") from None

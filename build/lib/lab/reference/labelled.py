@@ -1,0 +1,81 @@
+"""The labelled-pixel input: pinhole colour, coverage A and planar depth Z from Mitsuba.
+
+Z is the camera-space planar depth at each pixel centre: one ray per pixel centre from the same
+``perspective`` sensor that renders the colour, ``Scene.ray_intersect``, then
+Z = dot(hit - camera position, optical axis). (The sensor moves ray origins to the near-clip
+plane, so the hit distance ``t`` alone is not measured from the camera; the hit point is.)
+Rays that miss give Z = inf and A = 0; A = 1 where the centre ray hits a surface.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..exr_io import LabelledImage
+from ..scene import Scene
+from .backend import mitsuba
+from .layered import render_layers
+from .render import load, render_passes
+
+
+def pixel_centre_hits(scene: Scene, mi_scene=None):
+    """Hit points of one pinhole ray per pixel centre.
+
+    Returns
+    -------
+    points : (H, W, 3) float64
+        World-space hit points (undefined where ``valid`` is False).
+    valid : (H, W) bool
+        True where the ray hits a surface.
+    """
+    mi = mitsuba()
+    import drjit as dr
+
+    mi_scene = load(scene, "pinhole") if mi_scene is None else mi_scene
+    w, h = scene.width, scene.height
+    idx = dr.arange(mi.UInt32, w * h)
+    pos = mi.Point2f((mi.Float(idx % w) + 0.5) / w, (mi.Float(idx // w) + 0.5) / h)
+    ray, _ = mi_scene.sensors()[0].sample_ray(mi.Float(0.0), mi.Float(0.5), pos, mi.Point2f(0.5, 0.5))
+    si = mi_scene.ray_intersect(ray)
+    points = np.stack([np.asarray(si.p[i], dtype=np.float64) for i in range(3)], axis=-1)
+    valid = np.asarray(si.is_valid(), dtype=bool)
+    return points.reshape(h, w, 3), valid.reshape(h, w)
+
+
+def planar_depth(scene: Scene, mi_scene=None) -> np.ndarray:
+    """(H, W) float32 planar camera depth in metres at pixel centres; ``inf`` where nothing is hit."""
+    points, valid = pixel_centre_hits(scene, mi_scene)
+    cam = scene.camera
+    z = (points - np.asarray(cam.position, dtype=np.float64)) @ cam.forward()
+    return np.where(valid, z, np.inf).astype(np.float32)
+
+
+def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None = None,
+                    progress: bool = True) -> LabelledImage:
+    """Render the labelled-pixel input of ``scene``: R,G,B (path traced), A, Z, camera header.
+
+    Parameters
+    ----------
+    scene : Scene
+    spp : int, optional
+        Colour samples per pixel; default ``scene.render.input_spp``.
+    pass_spp : int, optional
+        Samples per render pass (see :func:`lab.reference.render.split_spp`).
+    progress : bool
+        Show a tqdm bar.
+
+    Returns
+    -------
+    LabelledImage
+        ``camera`` is the scene camera's JSON (a thin lens for a DoF scene: the lens the runtime
+        must simulate), although the pixels themselves are pinhole. When shapes carry a
+        ``layer`` key, ``extra`` also holds the layered input's ``layerN.*`` channels
+        (:mod:`lab.reference.layered`, same spp).
+    """
+    mi_scene = load(scene, "pinhole")
+    spp = scene.render.input_spp if spp is None else spp
+    rgb = render_passes(mi_scene, spp, scene.render.seed, "input", pass_spp, progress,
+                        desc=f"input {scene.name}")
+    z = planar_depth(scene, mi_scene)
+    alpha = np.isfinite(z).astype(np.float32)
+    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=scene.camera.camera_json(),
+                         extra=render_layers(scene, spp, pass_spp, progress))

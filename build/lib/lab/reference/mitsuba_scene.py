@@ -1,0 +1,111 @@
+"""Scene dataclasses -> one Mitsuba scene dict, shared by the reference and the pinhole input.
+
+Both renders see the same objects, lights and view (look-at frame, horizontal field of view);
+only the sensor differs: ``thinlens`` (aperture radius f / 2N, planar focus distance), the same
+lens with a polygonal iris (:mod:`lab.reference.polygon_lens`) or ``perspective``. The box pixel filter makes each pixel the exact integral over its own area, the
+same footprint for the reference and the input.
+"""
+from __future__ import annotations
+
+from ..scene import Scene
+from ..scene_objects import Material, Shape
+from .backend import mitsuba
+
+SENSORS = ("scene", "pinhole")
+
+
+def _rgb(value):
+    return {"type": "rgb", "value": [float(c) for c in value]}
+
+
+def _texture(m: Material, default=(0.5, 0.5, 0.5)):
+    if m.checkerboard is None:
+        return _rgb(m.reflectance or default)
+    c = m.checkerboard
+    mi = mitsuba()
+    return {"type": "checkerboard", "color0": _rgb(c.color0), "color1": _rgb(c.color1),
+            "to_uv": mi.ScalarTransform4f().scale([*c.uv_scale(), 1.0])}
+
+
+# One builder per material / emitter type (registered by name, as Mitsuba's plugins are).
+MATERIALS = {
+    "diffuse": lambda m: {"type": "diffuse", "reflectance": _texture(m)},
+    "roughplastic": lambda m: {"type": "roughplastic", "distribution": "ggx",
+                               "diffuse_reflectance": _texture(m),
+                               "alpha": 0.1 if m.alpha is None else m.alpha},
+    "conductor": lambda m: {"type": "conductor", "material": m.metal},
+}
+EMITTERS = {
+    "constant": lambda e: {"type": "constant", "radiance": _rgb(e.radiance)},
+    "point": lambda e: {"type": "point", "position": list(e.position), "intensity": _rgb(e.intensity)},
+    "directional": lambda e: {"type": "directional", "direction": list(e.direction),
+                              "irradiance": _rgb(e.irradiance)},
+}
+
+
+def _emitter(e) -> dict:
+    return {**EMITTERS[e.type](e), "sampling_weight": e.sampling_weight}
+BLACK = {"type": "diffuse", "reflectance": _rgb((0.0, 0.0, 0.0))}
+
+
+def _shape(shape: Shape, material_ids: dict) -> dict:
+    mi = mitsuba()
+    out = {"type": shape.type, "to_world": mi.ScalarTransform4f(shape.to_world_matrix().tolist())}
+    out["bsdf"] = BLACK if shape.material is None else {"type": "ref", "id": material_ids[shape.material]}
+    if shape.emitter is not None:
+        out["emitter"] = {"type": "area", "radiance": _rgb(shape.emitter.radiance),
+                          "sampling_weight": shape.emitter.sampling_weight}
+    return out
+
+
+def sensor_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
+    """The Mitsuba sensor: the scene's camera (``"scene"``) or a pinhole with the same view."""
+    if sensor not in SENSORS:
+        raise ValueError(f"sensor = {sensor!r}: use one of {SENSORS}")
+    mi = mitsuba()
+    cam = scene.camera
+    out = {
+        "type": "perspective", "fov": cam.fov_x_deg(), "fov_axis": "x",
+        "to_world": mi.ScalarTransform4f().look_at(origin=list(cam.position), target=list(cam.look_at),
+                                                   up=list(cam.up)),
+        "film": {"type": "hdrfilm", "width": scene.width, "height": scene.height,
+                 "pixel_format": "rgb", "component_format": "float32", "rfilter": {"type": "box"}},
+        "sampler": {"type": "independent", "sample_count": int(spp)},
+    }
+    lens, iris = cam.thin_lens(), cam.iris()
+    if sensor == "scene" and lens is not None:
+        out.update(type="thinlens", aperture_radius=lens.aperture_radius_m,
+                   focus_distance=lens.focus_distance_m)
+        if iris is not None:
+            from .polygon_lens import register
+
+            del out["fov_axis"]   # the plugin's fov is horizontal
+            out.update(type=register(), blades=iris.blades, rotation_deg=iris.rotation_deg,
+                       rounding=iris.rounding)
+    return out
+
+
+def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
+    """The whole Mitsuba scene dict (``mi.load_dict`` it) with a ``path`` integrator.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene.
+    sensor : {"scene", "pinhole"}
+        ``"scene"``: the scene's own camera (``thinlens`` for a thin lens); ``"pinhole"``: a
+        ``perspective`` sensor with the same position, orientation and horizontal fov.
+    spp : int
+        Samples per pixel stored in the sampler (``mi.render(spp=...)`` may override it).
+    """
+    out = {"type": "scene", "integrator": {"type": "path", "max_depth": scene.render.max_depth},
+           "sensor": sensor_dict(scene, sensor, spp)}
+    material_ids = {name: f"material_{i}" for i, name in enumerate(sorted(scene.materials))}
+    for name, key in material_ids.items():
+        m = scene.materials[name]
+        out[key] = MATERIALS[m.type](m)
+    for i, shape in enumerate(scene.shapes):
+        out[f"shape_{i}"] = _shape(shape, material_ids)
+    for i, emitter in enumerate(scene.emitters):
+        out[f"emitter_{i}"] = _emitter(emitter)
+    return out

@@ -1,0 +1,79 @@
+"""A Mitsuba 3 thin-lens sensor with a polygonal iris: the reference for polygonal bokeh.
+
+Mitsuba's ``thinlens`` samples a disc. This Python sensor (``mi.register_sensor``) is the same
+camera with the lens point drawn uniformly from :class:`lab.optics.aperture.PolygonAperture`
+(the lab's one iris sampler) scaled to the aperture radius, its circumradius: the pinhole ray of
+the position sample fixes the point on the planar focus plane at ``focus_distance`` (camera
+space z), and the ray runs from the lens point through it, as in Mitsuba's ``thinlens.cpp``
+(same projection, near/far clip handling and weight 1). A point at planar depth z then images
+to the iris scaled to the CoC radius of :class:`runtime_cl.camera.thin_lens.ThinLens`, upright behind
+the focus plane and rotated by 180 degrees in front of it.
+
+Orientation: the iris is given as seen in the image (x right, y up); Mitsuba's camera space has
++x on the image's left, so the lens point is mirrored in x.
+"""
+from __future__ import annotations
+
+import functools
+
+from .backend import mitsuba
+
+PLUGIN = "splatlab_polygon_thinlens"
+
+
+@functools.cache
+def register() -> str:
+    """Register the sensor plugin (once per process); returns its ``type`` name for scene dicts.
+
+    Parameters of the plugin: ``fov`` (horizontal, degrees), ``to_world``, ``aperture_radius``
+    (metres), ``focus_distance`` (metres), ``blades``, ``rotation_deg``, ``rounding`` (the iris,
+    :class:`lab.optics.iris.Iris`), optional ``near_clip``/``far_clip``, a film and a sampler.
+    """
+    mi = mitsuba()
+    import drjit as dr
+    from drjit.llvm import Array2f, Float
+
+    from ..optics.aperture import PolygonAperture
+
+    class PolygonThinLens(mi.Sensor):
+        def __init__(self, props):
+            super().__init__(props)
+            self.iris = PolygonAperture(blades=props.get("blades"), rotation_deg=props.get("rotation_deg", 0.0),
+                                        rounding=props.get("rounding", 0.0))
+            self.radius = float(props.get("aperture_radius"))
+            self.focus = float(props.get("focus_distance"))
+            self.near, self.far = float(props.get("near_clip", 1e-2)), float(props.get("far_clip", 1e4))
+            film = self.film()
+            self.sample_to_camera = mi.perspective_projection(
+                film.size(), film.crop_size(), film.crop_offset(), float(props.get("fov")),
+                self.near, self.far).inverse()
+            self.m_needs_sample_3 = True
+
+        def sample_ray(self, time, sample1, sample2, sample3, active=True):
+            near_p = self.sample_to_camera @ mi.Point3f(sample2.x, sample2.y, 0.0)
+            lens = self.iris.sample(Array2f(Float(sample3.x), Float(sample3.y)))
+            aperture_p = mi.Point3f(-self.radius * mi.Float(lens.x), self.radius * mi.Float(lens.y), 0.0)
+            focus_p = near_p * (self.focus / near_p.z)
+            d = dr.normalize(mi.Vector3f(focus_p - aperture_p))
+            to_world = self.world_transform()
+            direction = to_world @ mi.Vector3f(d)
+            inv_z = dr.rcp(d.z)
+            near_t, far_t = self.near * inv_z, self.far * inv_z
+            origin = to_world @ mi.Point3f(aperture_p) + direction * near_t
+            ray = mi.Ray3f(mi.Point3f(origin), direction, far_t - near_t, time, mi.Color0f())
+            return ray, mi.Spectrum(1.0)
+
+        def sample_ray_differential(self, time, sample1, sample2, sample3, active=True):
+            ray, weight = self.sample_ray(time, sample1, sample2, sample3, active)
+            return mi.RayDifferential3f(ray), weight
+
+        def bbox(self):
+            p = self.world_transform() @ mi.Point3f(0.0, 0.0, 0.0)
+            return mi.ScalarBoundingBox3f(mi.ScalarPoint3f(p.x[0], p.y[0], p.z[0]))
+
+        def to_string(self):
+            return (f"PolygonThinLens[iris={self.iris}, aperture_radius={self.radius}, "
+                    f"focus_distance={self.focus}]")
+
+    mi.register_sensor(PLUGIN, lambda props: PolygonThinLens(props))
+    return PLUGIN

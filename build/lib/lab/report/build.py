@@ -1,0 +1,76 @@
+"""Assemble a scene report: metrics per method, PNGs, the accuracy/time plot, regressions."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from runtime_cl.psf.database import SpreadletDatabase
+from runtime_cl.timing import COLUMNS
+
+from .images import save_heatmap, save_render
+from .machine import machine_info
+from .metrics import TONEMAP, error_map, psnr, ssim
+from .plots import accuracy_vs_time
+from .regress import compare
+
+ERROR_SCALE = 4.0  # error maps show 4 x |difference| so small errors are visible
+
+
+def _database_summary(result) -> dict:
+    db = SpreadletDatabase.load(result.path)
+    info = db.info()
+    info.update(path=str(result.path), reused=result.reused, build_seconds=round(result.seconds, 2),
+                rays=result.rays, trace_seconds=round(result.trace_seconds, 2),
+                sparsify_seconds=round(result.sparsify_seconds, 2))
+    if result.trace_seconds > 0:
+        info["trace_Mrays_per_s"] = round(result.rays / result.trace_seconds / 1e6, 1)
+    for key in ("ssim", "l1", "sparsity"):
+        if key in db.stats:
+            info[f"mean_{key}"] = float(np.mean(db.stats[key]))
+    return info
+
+
+def assemble_report(scene, plan, image, reference, ref_info, databases, results, out_dir,
+                    baseline=None) -> dict:
+    """Write the images of one run into ``out_dir`` and return the report.json dictionary."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    save_render(reference, out_dir / "reference.png")
+    save_render(image.rgb, out_dir / "input.png")
+    methods = {}
+    for name, (rendered, timing) in results.items():
+        rgb = rendered[..., :3] if rendered.shape[2] >= 3 else np.repeat(rendered, 3, axis=2)
+        save_render(rgb, out_dir / f"{name}.png")
+        save_heatmap(error_map(rgb, reference) * ERROR_SCALE, out_dir / f"{name}_error.png", vmax=1.0)
+        methods[name] = dict(timing, ssim=ssim(rgb, reference), psnr=psnr(rgb, reference),
+                             image=f"{name}.png", error_image=f"{name}_error.png", error_scale=ERROR_SCALE)
+    plots = {}
+    if len(methods) > 1:
+        accuracy_vs_time(methods, out_dir / "accuracy_vs_time.png")
+        plots["SSIM vs time"] = "accuracy_vs_time.png"
+    if "splat" in methods:
+        for name, m in methods.items():
+            m["speedup_vs_splat"] = methods["splat"]["time_ms"] / m["time_ms"] if m["time_ms"] else None
+    report = {
+        "schema": 1,
+        "scene": {"name": scene.name, "path": scene.source, "resolution": list(scene.info.resolution),
+                  "camera": image.camera},
+        "plan": {"effects": plan.effects, "psf_models": list(plan.psf_models),
+                 "runtime_passes": list(plan.runtime_passes),
+                 "skipped": [f"{s.name}: {s.detail}" for s in plan.skipped]},
+        "tonemap": TONEMAP,
+        "metrics": "SSIM: skimage structural_similarity, gaussian sigma 1.5, data_range 1, channel_axis 2; "
+                   "PSNR data_range 1; both on the tonemap",
+        "timing": dict(COLUMNS, runs="timed calls after one warm-up call; every figure is their median"),
+        "images": {"reference": "reference.png", "input (pinhole)": "input.png"},
+        "plots": plots,
+        "methods": methods,
+        "database": {name: _database_summary(r) for name, r in databases.items()},
+        "reference": ref_info,
+        "settings": {"render": scene.to_dict()["render"], "psf": scene.psf},
+        "machine": machine_info(),
+    }
+    if baseline is not None:
+        report["regressions"] = compare(baseline, report)
+    return report

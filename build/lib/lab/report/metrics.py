@@ -1,0 +1,47 @@
+"""Image metrics against a reference, on a stated tonemap.
+
+Linear radiance is tonemapped by clipping to [0, 1] and applying the sRGB transfer curve
+(:func:`tonemap`); SSIM (scikit-image, Gaussian-weighted as Wang et al. 2004, data_range = 1,
+channel_axis = 2) and PSNR (data_range = 1) are computed on the tonemapped images, so both
+measure what a viewer sees. The tonemap is recorded in every report.
+"""
+from __future__ import annotations
+
+import numpy as np
+from skimage.metrics import peak_signal_noise_ratio, structural_similarity
+
+TONEMAP = "srgb(clip(x, 0, 1))"
+
+
+def tonemap(linear: np.ndarray) -> np.ndarray:
+    """Linear RGB -> display sRGB in [0, 1] (clip, then the sRGB transfer curve)."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def _check(image, reference):
+    if image.shape != reference.shape:
+        raise ValueError(f"image shape {image.shape} differs from reference shape {reference.shape}")
+
+
+def ssim(image: np.ndarray, reference: np.ndarray) -> float:
+    """SSIM of two linear RGB images (H, W, 3) after :func:`tonemap`."""
+    _check(image, reference)
+    return float(structural_similarity(tonemap(image), tonemap(reference), data_range=1.0,
+                                       channel_axis=2, gaussian_weights=True, sigma=1.5,
+                                       use_sample_covariance=False))
+
+
+def psnr(image: np.ndarray, reference: np.ndarray) -> float:
+    """PSNR in dB of two linear RGB images after :func:`tonemap` (inf when identical)."""
+    _check(image, reference)
+    a, b = tonemap(image), tonemap(reference)
+    if np.array_equal(a, b):
+        return float("inf")
+    return float(peak_signal_noise_ratio(b, a, data_range=1.0))
+
+
+def error_map(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Per-pixel mean absolute difference of the tonemapped images, (H, W) in [0, 1]."""
+    _check(image, reference)
+    return np.abs(tonemap(image) - tonemap(reference)).mean(axis=2)

@@ -1,0 +1,45 @@
+"""Regression check: compare a new report.json against a baseline report.json."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..errors import UserError
+
+
+def load_report(path) -> dict:
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise UserError(f"report {path}: cannot be read as JSON ({exc}); pass a report.json "
+                        "written by `splatlab report`") from None
+    if not isinstance(data, dict) or "methods" not in data:
+        raise UserError(f"report {path}: has no 'methods' table; pass a report.json written by "
+                        "`splatlab report`")
+    return data
+
+
+def compare(baseline: dict, new: dict, ssim_drop: float = 0.01, slowdown: float = 1.5) -> list[str]:
+    """Regressions of ``new`` against ``baseline``: one message each, empty when none.
+
+    A method regresses when its SSIM falls by more than ``ssim_drop`` or its time grows by more than
+    the factor ``slowdown``. Times on a shared machine are noisy, so the default factor is loose;
+    the time is compared as a ratio to the Splat baseline measured in the same run when both
+    reports have it, which cancels most of the machine's load.
+    """
+    out = []
+    base_m, new_m = baseline["methods"], new["methods"]
+    for name in sorted(set(base_m) & set(new_m)):
+        b, n = base_m[name], new_m[name]
+        if n["ssim"] < b["ssim"] - ssim_drop:
+            out.append(f"{name}: SSIM {b['ssim']:.4f} -> {n['ssim']:.4f} (dropped more than {ssim_drop})")
+        ref = "splat" if "splat" in base_m and "splat" in new_m and name != "splat" else None
+        bt = b["time_ms"] / base_m[ref]["time_ms"] if ref else b["time_ms"]
+        nt = n["time_ms"] / new_m[ref]["time_ms"] if ref else n["time_ms"]
+        if nt > bt * slowdown:
+            unit = "x Splat" if ref else "ms"
+            out.append(f"{name}: time {bt:.4g} -> {nt:.4g} {unit} (slower by more than {slowdown}x)")
+    for name in sorted(set(base_m) - set(new_m)):
+        out.append(f"{name}: present in the baseline, missing now")
+    return out

@@ -1,0 +1,131 @@
+"""The plan's runtime passes on a labelled image: frames, apertures, databases and timings.
+
+A plan lists its runtime passes by label (the method names of a report). Each label is a
+registered pass of :mod:`runtime_cl.passes` with options (:data:`PASS_RUNS`; a label that is
+not listed there is the pass of that name without options). A pass that needs a database runs
+once with every database the plan built whose model it renders; a pass that draws the camera's
+aperture gets the camera's iris, rectified here (the runtime ships only its built-in shapes).
+Every pass is timed by the runtime's one contract (:mod:`runtime_cl.timing`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from runtime_cl.frame import Frame
+from runtime_cl.passes.registry import get_pass, run_pass
+
+from .errors import UserError
+
+TIMED_RUNS = 3
+DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
+
+# Report label -> (registered pass, options).
+PASS_RUNS = {
+    "polygon_layers": ("polygon", {"layers": DEPTH_LAYERS}),
+    "polygon_layered_input": ("polygon", {"layers": DEPTH_LAYERS, "layered_input": True}),
+}
+
+
+def pass_run(label: str) -> tuple:
+    """``(pass name, options)`` of a plan's runtime pass label."""
+    return PASS_RUNS.get(label, (label, {}))
+
+
+def read_motion(image, path, model: str) -> np.ndarray:
+    """The labelled image's per-pixel motion (H, W, 2): channels ``motion.X``, ``motion.Y`` in pixels
+    over the shutter, X right, Y up (what a ``model`` database needs)."""
+    missing = [c for c in ("motion.X", "motion.Y") if c not in image.extra]
+    if missing:
+        raise UserError(f"{path}: channel(s) {missing} missing; a {model!r} database needs per-pixel motion "
+                        "(motion.X, motion.Y: pixels over the shutter, Y up); write them into the EXR")
+    return np.stack([image.extra["motion.X"], image.extra["motion.Y"]], axis=-1)
+
+
+def frame_of(image, source: str = "input", db=None, layered_input: bool = False) -> Frame:
+    """The runtime's :class:`~runtime_cl.frame.Frame` of a :class:`lab.exr_io.LabelledImage`:
+    motion when ``db`` is a motion database, the ``layerN.*`` layers when ``layered_input``."""
+    from runtime_cl.coords.maps import needs_motion
+
+    motion = read_motion(image, source, db.model) if db is not None and needs_motion(db.model) else None
+    layers = ()
+    if layered_input:
+        found = image.layers(source)
+        if not found:
+            raise UserError(f"{source}: the input has no layerN.* channels; render it with layers (a scene "
+                            "whose [[shapes]] have a layer key) or splat the flat image")
+        layers = tuple(Frame(x.rgb, x.depth, alpha=x.alpha) for x in found)
+    return Frame(image.rgb, image.depth, alpha=image.alpha, motion=motion, layers=layers)
+
+
+def camera_aperture(image, source: str = "input camera header", directions_m: int = 2, edges=None):
+    """The rectified polygon of the image camera's iris, or None for a round aperture."""
+    if "aperture" not in image.camera:
+        return None
+    from .config import from_table
+    from .optics.iris import Iris
+    from .polygon_aperture import iris_aperture
+
+    return iris_aperture(from_table(Iris, image.camera["aperture"], f"{source} aperture"), directions_m, edges)
+
+
+def aperture_info(aperture) -> dict:
+    """What a report says of a rectified aperture."""
+    return {"edges": aperture.edges, "rectify_s": round(aperture.rectify_s, 3),
+            "table_s": round(aperture.splatter.table.build_seconds, 3)}
+
+
+def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: bool = True) -> dict:
+    """Every runtime pass of the plan on ``image``: report label -> (image, timing dict).
+
+    ``databases``: model name -> :class:`lab.precompute.PrecomputeResult` (what the plan built).
+    """
+    from runtime_cl.psf.database import SpreadletDatabase
+    from tqdm import tqdm
+
+    camera = runtime_camera(image)
+    dbs = {name: SpreadletDatabase.load(r.path, expect_model=name) for name, r in databases.items()}
+    aperture = None
+    out = {}
+    for label in tqdm(plan.runtime_passes, desc="runtime", unit="method", disable=not progress):
+        name, options = pass_run(label)
+        cls = get_pass(name)
+        if cls.draws_aperture:
+            aperture = aperture or camera_aperture(image)
+            if aperture is not None:
+                options = dict(options, aperture=aperture.splatter)
+        candidates = [None] if cls.database_models == () else \
+            [db for db in dbs.values() if cls.database_models is None or db.model in cls.database_models]
+        if not candidates:
+            raise UserError(f"runtime pass {label!r} needs a database; the plan built {sorted(dbs)}")
+        for db in candidates:
+            key = label if len(candidates) == 1 else f"{label}:{db.model}"
+            frame = frame_of(image, db=db, layered_input=options.get("layered_input", False))
+            rendered, timing = run_pass(name, frame, camera, db, runs=runs, **options)
+            entry = timing.to_json()
+            if cls.draws_aperture and aperture is not None:
+                entry["aperture"] = aperture_info(aperture)
+            out[key] = (rendered, entry)
+    return out
+
+
+def runtime_camera(image, source: str = "input camera header"):
+    """The runtime twin of the image's camera (None for a pinhole: no lens)."""
+    from runtime_cl.camera.thin_lens import ThinLens
+
+    return ThinLens.from_json(image.camera, source) if image.camera.get("lens") == "thin" else None
+
+
+def read_input(path, camera_file=None):
+    """A labelled-pixel EXR for ``splatlab render``; ``camera_file`` (TOML) overrides its header."""
+    from .exr_io import read_labelled
+
+    camera = None
+    if camera_file is not None:
+        from .scene import load_camera
+
+        camera = load_camera(camera_file).camera_json()
+    image = read_labelled(path, camera=camera)
+    if image.camera.get("lens") != "thin":
+        raise UserError(f"{path}: camera lens {image.camera.get('lens')!r}; `splatlab render` needs a thin "
+                        "lens camera (pass --camera FILE.toml with a [camera] model = \"thin\" table)")
+    return image

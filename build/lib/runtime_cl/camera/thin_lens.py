@@ -1,0 +1,109 @@
+"""Thin-lens circle of confusion in numpy: the runtime's mirror of ``lab.optics.thin_lens``.
+
+Geometry (Mitsuba's ``thinlens`` sensor uses the same): a lens of focal length f and aperture
+radius a = f / (2 N), focused at distance F, images the focus plane onto a sensor at the image
+distance v = f F / (F - f). A point at camera-space depth z (along the optical axis) spreads into
+a disc whose radius on the sensor is a v |1/F - 1/z|; in pixels of an image W pixels wide on a
+sensor ``sensor_width`` wide:
+
+    r(z) = a v W / sensor_width * (1/F - 1/z)
+
+signed: positive behind the focus plane, negative in front. Written with 1/z so z = inf
+(background at infinity) is exact.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+
+
+@dataclass(frozen=True)
+class ThinLens:
+    """A thin lens camera, units as in the ``splatlab.camera`` header.
+
+    Parameters
+    ----------
+    focal_length_mm : float
+        Focal length f in millimetres (> 0).
+    f_number : float
+        f-number N (> 0); the aperture radius is f / (2 N).
+    focus_distance_m : float
+        Distance F of the plane in focus, in metres; must exceed the focal length.
+    sensor_width_mm : float
+        Sensor width in millimetres (> 0); the image width in pixels spans it.
+    """
+
+    focal_length_mm: float
+    f_number: float
+    focus_distance_m: float
+    sensor_width_mm: float = 36.0
+
+    def __post_init__(self):
+        for name in ("focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise InputError(f"camera {name} = {value!r}: must be a finite number > 0")
+        if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
+            raise InputError(
+                f"camera focus_distance_m = {self.focus_distance_m}: a lens of focal length "
+                f"{self.focal_length_mm} mm cannot focus closer than its focal length; "
+                f"use a focus distance > {self.focal_length_mm / 1000.0} m")
+
+    @property
+    def aperture_radius_m(self) -> float:
+        return self.focal_length_mm / 2000.0 / self.f_number
+
+    @property
+    def image_distance_m(self) -> float:
+        f = self.focal_length_mm / 1000.0
+        return f * self.focus_distance_m / (self.focus_distance_m - f)
+
+    def fov_x_deg(self) -> float:
+        """Horizontal field of view of the sensor at the image distance (focus breathing included)."""
+        return math.degrees(2.0 * math.atan(self.sensor_width_mm / 2000.0 / self.image_distance_m))
+
+    def coc_scale_px(self, width_px: int) -> float:
+        """a v W / sensor_width: the CoC radius in pixels per dioptre of defocus (1/F - 1/z)."""
+        return self.aperture_radius_m * self.image_distance_m * width_px / (self.sensor_width_mm / 1000.0)
+
+    def coc_radius_px(self, z_m, width_px: int):
+        """Signed circle-of-confusion radius in pixels for camera-space depth ``z_m`` (metres).
+
+        ``z_m`` may be a scalar or array; ``inf`` is allowed (background), z <= 0 or NaN is not.
+        """
+        z = np.asarray(z_m, dtype=np.float64)
+        bad = ~(z > 0)  # catches NaN too
+        if np.any(bad):
+            first = float(z[bad].flat[0])
+            raise InputError(f"depth Z = {first!r} at {int(bad.sum())} pixel(s): depths must be > 0 "
+                             "metres (use inf for background at infinity)")
+        return self.coc_scale_px(width_px) * (1.0 / self.focus_distance_m - 1.0 / z)
+
+    def to_json(self) -> dict:
+        return {"lens": "thin", "focal_length_mm": self.focal_length_mm, "f_number": self.f_number,
+                "focus_distance_m": self.focus_distance_m, "sensor_width_mm": self.sensor_width_mm}
+
+    @classmethod
+    def from_json(cls, data: dict, source: str = "camera") -> "ThinLens":
+        """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors.
+
+        An ``aperture`` entry (a polygonal iris, ``{"blades": 6, ...}``) does not change the CoC,
+        which is the iris's circumradius; the polygon path reads it.
+        """
+        if data.get("lens") != "thin":
+            raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs 'thin'")
+        known = {"lens", "focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm", "shutter",
+                 "aperture"}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")
+        missing = [k for k in ("focal_length_mm", "f_number", "focus_distance_m") if k not in data]
+        if missing:
+            raise InputError(f"{source}: missing key(s) {missing} for a thin lens")
+        return cls(focal_length_mm=data["focal_length_mm"], f_number=data["f_number"],
+                   focus_distance_m=data["focus_distance_m"],
+                   sensor_width_mm=data.get("sensor_width_mm", 36.0))

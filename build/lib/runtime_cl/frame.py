@@ -1,0 +1,56 @@
+"""What a runtime pass renders: labelled pixels in memory (the EXR contract's channels)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+
+__all__ = ["Frame"]
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Labelled pixels: ``R, G, B, A, Z`` and the optional channels a pass may read.
+
+    Parameters
+    ----------
+    rgb : array_like, (H, W, C), C = 1 or 3
+        Linear radiance (premultiplied by ``alpha``).
+    depth : array_like, (H, W)
+        Camera-space planar depth Z in metres (> 0; ``inf`` for the background).
+    alpha : array_like, (H, W), optional
+        Coverage in [0, 1]; default 1 everywhere.
+    motion : array_like, (H, W, 2), optional
+        ``motion.X, motion.Y``: pixels over the shutter, X right, Y up.
+    layers : sequence of Frame, optional
+        ``layerN.*`` of a layered input, nearest first, each with rgb, alpha and depth.
+    """
+
+    rgb: np.ndarray
+    depth: np.ndarray
+    alpha: np.ndarray | None = None
+    motion: np.ndarray | None = None
+    layers: tuple = ()
+
+    def __post_init__(self):
+        rgb, depth = np.asarray(self.rgb), np.asarray(self.depth)
+        if depth.ndim != 2 or rgb.ndim != 3 or rgb.shape[:2] != depth.shape:
+            raise InputError(f"rgb {rgb.shape} and depth {depth.shape}: need (H, W, C) colour and "
+                             "(H, W) depth of the same image")
+        h, w = depth.shape
+        if self.alpha is not None and np.shape(self.alpha) != (h, w):
+            raise InputError(f"alpha: shape {np.shape(self.alpha)}, need (H, W) = {(h, w)}")
+        if self.motion is not None and np.shape(self.motion) != (h, w, 2):
+            raise InputError(f"motion: shape {np.shape(self.motion)}, need (H, W, 2) = {(h, w, 2)} "
+                             "(motion.X, motion.Y in pixels, Y up)")
+        object.__setattr__(self, "layers", tuple(self.layers))
+
+    @property
+    def shape(self) -> tuple:
+        return np.shape(self.depth)
+
+    def coverage(self) -> np.ndarray:
+        """``alpha``, or 1 everywhere when the frame has none."""
+        return np.ones(self.shape, np.float32) if self.alpha is None else np.asarray(self.alpha, np.float32)

@@ -1,0 +1,250 @@
+"""Occlusion for any splatting pass: global depth layers (LSR18 section 6, "Layering Details").
+
+Splatting adds every pixel's PSF linearly, so a blurred background bleeds over an in-focus
+object in front of it and a blurred foreground shows nothing of what lies behind it (MHU21
+section 7 names occlusion as their limitation). As LSR18 do, the pixels are binned into global
+depth layers, each layer is splatted on its own, and the layers are composited. What splats a
+layer is a :class:`LayerSplatter`: any pass that can splat a masked image with per-pixel PSFs
+and blur one channel uniformly (exact polygons: :class:`runtime_cl.polygon.layers.
+PolygonLayerSplatter`).
+
+Binning. Layers are bins of equal width in the signed circle of confusion (``coc``, pixels:
+negative in front of the focus plane), which is affine in inverse depth: constant parallax
+[Lee et al. 2009]. The bins span the ``coc`` range of the live pixels (a pixel with zero colour
+and zero alpha is culled); layer 0 is the nearest. An empty layer costs nothing.
+
+Per layer. Every pixel of the layer splats its premultiplied radiance and its coverage (alpha)
+as one 4-channel image with the PSF of its signed CoC (polygons: the polygon at ``|coc|``,
+exact fixed point); the resolved layer is ``(C, A)``. Within a layer, splats add (LSR18:
+"splatting performs linear addition within a layer").
+
+Re-weighting. Where a single image is the input, a layer has holes wherever nearer pixels hid
+it; blurred, the hole darkens the layer around the nearer object's outline. Lee et al. [2008]
+normalise a layer by its accumulated splat weight; that would also harden the layer's genuine
+soft edges, so here the weight is that of the sites that *could* hold the layer: ``k = 1 - H``
+with ``H`` the coverage of the nearer layers' pixels blurred by the layer's radius ``rho`` (the
+coverage-weighted mean ``|coc|`` of its pixels; one bin spans a narrow range). The layer is
+scaled by ``g = 1 / min(1, max(k, A, MIN_KNOWN))``: a hole is filled by the layer's own colours,
+full coverage is never exceeded, where less than ``MIN_KNOWN`` of the footprint is known the
+fill fades out smoothly, and a layer with nothing in front of it (or with its hidden part
+supplied, as in layered input) is left unchanged, ``g = 1``. What no splat of the layer
+reaches stays unknown (transparent): a single image cannot show what a wide foreground hides.
+
+Opacity. Discrete PSFs change shape in steps as the radius grows (MHU21's integer polygons,
+a database's grid cells), so where neighbouring pixels of one surface use different PSFs their
+splats do not sum to 1 (rings of ``A`` a little below or above 1); through such a ring the (often far brighter) layers behind
+would shine. A layer therefore hides what is behind it by at least ``E / k``, its own pixels'
+coverage blurred by the single radius ``rho`` (no steps) relative to the known sites:
+``alpha = min(1, max(g A, E / max(k, MIN_KNOWN)))``.
+
+Compositing. Back to front with "over" on premultiplied colours:
+``out = g C + (1 - alpha) out``. With one layer the result is the layer's plain splat; a layer
+with no live pixels changes nothing.
+
+Layered input (LDI-like: e.g. a foreground layer with alpha and the background rendered without
+the foreground) is a list of :class:`PixelLayer`; all their pixels go into the same global
+layers, so the order of the input layers does not matter.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+
+__all__ = ["LayerSplatter", "PixelLayer", "layer_edges", "render_layers"]
+
+# Least known fraction a hole fill trusts: with less known around it fades out instead of
+# blowing up a few stray splats (a hard cut-off would draw its outline through the layers in front).
+MIN_KNOWN = 0.1
+
+
+class LayerSplatter(Protocol):
+    """What :func:`render_layers` needs of a pass: splat one layer, blur one channel.
+
+    Both return their image and the OpenCL times ``{"device_ms": ..., "transfer_ms": ...}``.
+    """
+
+    def splat_layer(self, images: list, cocs: list) -> tuple:
+        """Splat and resolve the premultiplied ``(rgb, alpha)`` images, float32 (H, W, C + 1),
+        zero outside the layer, each pixel with the PSF of its signed CoC ``cocs[i]`` (H, W)
+        (px; 0 outside the layer); all of them into one canvas. Returns float32 (H, W, C + 1)."""
+
+    def blur(self, image, radius_px: float) -> tuple:
+        """``image`` (H, W) float32 blurred by the PSF of CoC radius ``radius_px`` everywhere."""
+
+
+@dataclass(frozen=True)
+class PixelLayer:
+    """One image of labelled pixels: a single input image or one layer of a layered input.
+
+    Parameters
+    ----------
+    rgb : array_like, (H, W, C) with C <= 3
+        Linear radiance premultiplied by ``alpha`` (the OpenEXR convention). A pixel with zero
+        alpha and non-zero colour adds light without hiding anything (e.g. the sky).
+    alpha : array_like, (H, W)
+        Coverage in [0, 1].
+    coc : array_like, (H, W)
+        Signed circle-of-confusion radius in pixels (:meth:`runtime_cl.camera.thin_lens.ThinLens.
+        coc_radius_px`); its magnitude is the polygon's radius.
+    """
+
+    rgb: np.ndarray
+    alpha: np.ndarray
+    coc: np.ndarray
+
+
+def _check_layers(layers) -> list[PixelLayer]:
+    if isinstance(layers, PixelLayer):
+        layers = [layers]
+    layers = list(layers)
+    if not layers or not all(isinstance(x, PixelLayer) for x in layers):
+        raise InputError("layers: pass a PixelLayer or a non-empty list of them (one per input layer)")
+    out = []
+    for i, layer in enumerate(layers):
+        rgb = np.asarray(layer.rgb, np.float32)
+        rgb = rgb[..., None] if rgb.ndim == 2 else rgb
+        alpha, coc = np.asarray(layer.alpha, np.float32), np.asarray(layer.coc, np.float32)
+        shape = out[0].alpha.shape if out else alpha.shape
+        if rgb.ndim != 3 or not 1 <= rgb.shape[2] <= 3 or rgb.shape[:2] != shape or \
+                alpha.shape != shape or coc.shape != shape or (out and rgb.shape != out[0].rgb.shape):
+            raise InputError(f"layers[{i}]: rgb {rgb.shape}, alpha {alpha.shape}, coc {coc.shape} must be "
+                             f"(H, W, C<=3), (H, W), (H, W) and the same for every layer "
+                             f"(layers[0] is {out[0].rgb.shape if out else 'this one'})")
+        for name, a in (("rgb", rgb), ("alpha", alpha), ("coc", coc)):
+            if not np.isfinite(a).all():
+                raise InputError(f"layers[{i}].{name}: {int((~np.isfinite(a)).sum())} non-finite value(s); "
+                                 "every pixel needs finite colour, coverage and CoC (culled pixels: "
+                                 "alpha 0, colour 0, any finite CoC)")
+        if alpha.size and not (alpha.min() >= 0 and alpha.max() <= 1):
+            raise InputError(f"layers[{i}].alpha: values in [{alpha.min():g}, {alpha.max():g}]; coverage "
+                             "must lie in [0, 1]")
+        out.append(PixelLayer(rgb, alpha, coc))
+    return out
+
+
+def _check_count(n_layers) -> int:
+    if isinstance(n_layers, bool) or not isinstance(n_layers, (int, np.integer)) or n_layers < 1:
+        raise InputError(f"n_layers = {n_layers!r}: the number of depth layers must be an integer >= 1 "
+                         "(1 splats everything into one layer, without occlusion)")
+    return int(n_layers)
+
+
+def _live(layer: PixelLayer) -> np.ndarray:
+    return (layer.alpha > 0) | np.any(layer.rgb != 0, axis=2)
+
+
+def layer_edges(layers, n_layers: int) -> np.ndarray:
+    """Bin edges of ``n_layers`` depth layers in signed CoC (pixels), nearest first.
+
+    Parameters
+    ----------
+    layers : PixelLayer or list of PixelLayer
+    n_layers : int
+        At least 1.
+
+    Returns
+    -------
+    ndarray, float64, (n_layers + 1,)
+        Equal steps from the smallest to the largest ``coc`` of the live pixels (all zero when
+        none is live). Layer ``i`` holds ``edges[i] <= coc < edges[i + 1]``, the last one also
+        its upper edge.
+    """
+    return _edges(_check_layers(layers), _check_count(n_layers))
+
+
+def _edges(layers: list[PixelLayer], n: int) -> np.ndarray:
+    live = np.concatenate([x.coc[_live(x)].ravel() for x in layers])
+    lo, hi = (float(live.min()), float(live.max())) if live.size else (0.0, 0.0)
+    return np.linspace(lo, hi, n + 1)
+
+
+def _bins(layer: PixelLayer, edges: np.ndarray) -> np.ndarray:
+    """Depth layer of every pixel, -1 for culled ones."""
+    index = np.searchsorted(edges[1:-1], layer.coc.astype(np.float64), side="right")
+    return np.where(_live(layer), index, -1)
+
+
+def render_layers(splatter: LayerSplatter, layers, n_layers: int):
+    """Depth of field with occlusion: splat global depth layers and composite them.
+
+    Parameters
+    ----------
+    splatter : LayerSplatter
+        Splats one layer at a time (e.g. :class:`runtime_cl.polygon.layers.PolygonLayerSplatter`).
+    layers : PixelLayer or list of PixelLayer
+        The input: one image, or the layers of a layered image (any order).
+    n_layers : int
+        Global depth layers (>= 1), in equal steps of signed CoC.
+
+    Returns
+    -------
+    image : ndarray, float32, (H, W, C)
+        Premultiplied radiance (C as the input's ``rgb``).
+    info : dict
+        ``edges`` (signed CoC, px), ``layers`` (per non-empty layer: ``index``, ``pixels``,
+        ``radius_px`` (rho), ``max_radius_px``, ``device_ms``, ``transfer_ms``,
+        ``coverage_gain``: the layer's total coverage after the re-weighting over before, 1
+        without holes), ``device_ms`` and ``transfer_ms`` (event-profiled, all layers) and
+        ``wall_ms`` (the whole call).
+    """
+    start = time.perf_counter()
+    layers = _check_layers(layers)
+    edges = _edges(layers, _check_count(n_layers))
+    bins = [_bins(x, edges) for x in layers]
+    h, w, c = layers[0].rgb.shape
+    out = np.zeros((h, w, c), np.float32)
+    per_layer = []
+    for index in range(len(edges) - 2, -1, -1):                     # back to front
+        members = [b == index for b in bins]
+        if not any(m.any() for m in members):
+            continue
+        colour, alpha, sites, stats = _splat_layer(splatter, layers, members)
+        nearer = sum(x.alpha * ((b >= 0) & (b < index)) for x, b in zip(layers, bins))
+        known = np.ones((h, w), np.float32)
+        if np.any(nearer > 0):
+            hidden, times = splatter.blur(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
+            _add(stats, times)
+            known = 1.0 - hidden
+        weight = 1.0 / np.clip(np.maximum(known, alpha), MIN_KNOWN, 1.0)
+        opacity = np.minimum(alpha * weight, 1.0)
+        if per_layer:                                                # something lies behind
+            own, times = splatter.blur(np.minimum(sites, 1.0), stats["radius_px"])
+            _add(stats, times)
+            opacity = np.maximum(opacity, np.minimum(own / np.clip(known, MIN_KNOWN, 1.0), 1.0))
+        out = colour * weight[..., None] + (1.0 - opacity)[..., None] * out
+        gain = float(np.minimum(alpha * weight, 1.0).sum() / max(float(np.minimum(alpha, 1.0).sum()), 1e-30))
+        per_layer.append(dict(stats, index=index, coverage_gain=gain))
+    info = {"edges": edges.tolist(), "layers": per_layer[::-1],
+            "device_ms": sum(x["device_ms"] for x in per_layer),
+            "transfer_ms": sum(x["transfer_ms"] for x in per_layer),
+            "wall_ms": (time.perf_counter() - start) * 1e3}
+    return out.astype(np.float32), info
+
+
+def _add(stats: dict, times: dict) -> None:
+    stats["device_ms"] += times["device_ms"]
+    stats["transfer_ms"] += times["transfer_ms"]
+
+
+def _splat_layer(splatter: LayerSplatter, layers, members):
+    """One depth layer: resolved premultiplied colour (H, W, C), coverage (H, W), the coverage of
+    its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, times)."""
+    c = layers[0].rgb.shape[2]
+    parts = [(x, m) for x, m in zip(layers, members) if m.any()]
+    images = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None] for x, m in parts]
+    cocs = [np.where(m, x.coc, 0.0).astype(np.float32) for x, m in parts]
+    resolved, times = splatter.splat_layer(images, cocs)
+    radii = [np.abs(k) for k in cocs]
+    sites = sum(im[..., c] for im in images)
+    # rho weighs radii by coverage; a layer of pure light (zero alpha, e.g. the sky) by pixel
+    weights = [im[..., c] for im in images] if sites.any() else [m.astype(np.float32) for _, m in parts]
+    rho = sum(float((wt * r).sum()) for wt, r in zip(weights, radii)) / sum(float(wt.sum()) for wt in weights)
+    stats = {"pixels": int(sum(m.sum() for _, m in parts)), "radius_px": rho,
+             "max_radius_px": float(max(r.max() for r in radii)), "device_ms": times["device_ms"],
+             "transfer_ms": times["transfer_ms"]}
+    return resolved[..., :c], resolved[..., c], sites.astype(np.float32), stats

@@ -1,0 +1,138 @@
+"""The runtime pass registry: every way the runtime renders labelled pixels, by name.
+
+A pass is one module that registers a :class:`RuntimePass` subclass (``@register_pass``). The
+class declares what it needs: a database (of which models) or none, the input channels, and
+whether it renders depth layers. The pipeline, ``splatlab render --method``, the benchmarks and
+the reports iterate this registry; none of them switches on a method name.
+
+Life of a pass: construct it once per camera and database (kernel builds, uploads), call
+:meth:`RuntimePass.prepare` once per input (per-pixel PSF parameters from the camera and
+depth), then call the pass on the prepared input as often as needed; :func:`run_pass` does all
+three and times the calls with :func:`runtime_cl.timing.measure`.
+"""
+from __future__ import annotations
+
+import abc
+import time
+from typing import ClassVar
+
+from runtime_cl.errors import InputError
+from runtime_cl.timing import measure
+
+__all__ = ["RuntimePass", "register_pass", "get_pass", "pass_names", "run_pass"]
+
+_PASSES: dict[str, type] = {}
+
+
+class RuntimePass(abc.ABC):
+    """One way of rendering a :class:`~runtime_cl.frame.Frame`.
+
+    Class attributes
+    ----------------
+    name : str
+        Registry name (``--method NAME``), set by :func:`register_pass`.
+    summary : str
+        One line for ``--help`` and reports.
+    database_models : tuple of str or None
+        Database models the pass renders with: ``None`` any model the runtime has a coordinate
+        map for (:mod:`runtime_cl.coords.maps`), ``()`` none (no database).
+    channels : tuple of str
+        Input channels it reads (EXR names); ``motion.X, motion.Y`` only for motion databases.
+    layered : bool
+        Whether it renders global depth layers (``layers > 1``) and layered input.
+    draws_aperture : bool
+        Whether it draws the camera's aperture shape itself (option ``aperture``: the lab hands
+        it the camera's rectified iris), rather than the PSFs of a database.
+
+    Parameters
+    ----------
+    camera : runtime camera
+        E.g. :class:`runtime_cl.camera.thin_lens.ThinLens`.
+    db : SpreadletDatabase, optional
+        Required if and only if ``database_models != ()``.
+    layers : int, default 1
+        Global depth layers; more than 1 only for a ``layered`` pass.
+    device : Device, optional
+    **options
+        Pass-specific settings (see each pass).
+    """
+
+    name: ClassVar[str]
+    summary: ClassVar[str]
+    database_models: ClassVar[tuple | None]
+    channels: ClassVar[tuple]
+    layered: ClassVar[bool]
+    draws_aperture: ClassVar[bool] = False
+
+    def __init__(self, camera, db=None, *, layers: int = 1, device=None, **options):
+        if isinstance(layers, bool) or not isinstance(layers, int) or layers < 1:
+            raise InputError(f"layers = {layers!r}: the number of depth layers must be an integer >= 1 "
+                             "(1 splats everything into one layer, without occlusion)")
+        if layers > 1 and not self.layered:
+            layered = [n for n in pass_names() if get_pass(n).layered]
+            raise InputError(f"layers = {layers}: the {self.name!r} pass renders one layer; depth "
+                             f"layers are rendered by {layered}")
+        if self.database_models == () and db is not None:
+            raise InputError(f"db: the {self.name!r} pass uses no PSF database; drop it")
+        if self.database_models != () and db is None:
+            raise InputError(f"db: the {self.name!r} pass needs a spreadlet database "
+                             "(runtime_cl.load_database(path), made by `splatlab precompute`)")
+        if db is not None and self.database_models is not None and db.model not in self.database_models:
+            raise InputError(f"db: a {db.model!r} database; the {self.name!r} pass renders with "
+                             f"{list(self.database_models)}")
+        self.camera, self.db, self.layers, self.device = camera, db, layers, device
+        self.configure(**options)
+
+    def configure(self, **options) -> None:
+        """Take the pass-specific ``options``; by default there are none."""
+        if options:
+            raise InputError(f"{sorted(options)}: unknown option(s) of the {self.name!r} pass")
+
+    @abc.abstractmethod
+    def prepare(self, frame):
+        """Per-pixel PSF parameters of ``frame`` (computed once, not timed); an opaque object."""
+
+    @abc.abstractmethod
+    def __call__(self, prepared) -> tuple:
+        """Render the prepared frame once: ``(image (H, W, C) float32, CallTimes)``."""
+
+
+def register_pass(name: str):
+    """Class decorator: register a :class:`RuntimePass` under ``name``."""
+    def decorate(cls):
+        if name in _PASSES:
+            raise ValueError(f"runtime pass {name!r} is registered twice ({_PASSES[name]} and {cls})")
+        cls.name = name
+        _PASSES[name] = cls
+        return cls
+    return decorate
+
+
+def pass_names() -> list[str]:
+    """Registered pass names, in registration order (the order reports list them)."""
+    import runtime_cl.passes  # noqa: F401  (importing the package registers every pass)
+
+    return list(_PASSES)
+
+
+def get_pass(name: str) -> type:
+    """The :class:`RuntimePass` class registered as ``name``."""
+    names = pass_names()
+    if name not in _PASSES:
+        raise InputError(f"method = {name!r}: unknown runtime pass; choose one of {names}")
+    return _PASSES[name]
+
+
+def run_pass(name: str, frame, camera, db=None, *, runs: int = 0, layers: int = 1, device=None,
+             **options):
+    """Render ``frame`` with the pass ``name`` and time it (:func:`runtime_cl.timing.measure`).
+
+    Returns ``(image, Timing)``; ``runs`` timed calls follow one warm-up call (0: one call).
+    """
+    start = time.perf_counter()
+    p = get_pass(name)(camera, db, layers=layers, device=device, **options)
+    build_ms = (time.perf_counter() - start) * 1e3
+    start = time.perf_counter()
+    prepared = p.prepare(frame)
+    prepare_ms = (time.perf_counter() - start) * 1e3
+    return measure(lambda: p(prepared), runs, prepare_ms, build_ms)

@@ -1,0 +1,181 @@
+"""PSF space: power remapping and LSR18's nested grid (section 5.2), forward map in numpy.
+
+A PSF model has ``ns`` physical coordinates x_d in [lo_d, hi_d] (e.g. the CoC radius in pixels).
+They are normalised to s_d = (x_d - lo_d) / (hi_d - lo_d) in [0, 1] and power remapped: grid
+coordinates are g_d = n * s_d ** (1 / beta_d), so a physical coordinate is s = (g / n) ** beta and
+beta > 1 puts more cells at small coordinates (LSR18 Tbl. 1: p(s) = s^beta places the samples).
+
+The nested grid on [0, n)^ns has levels l = 0, 1, ...: level l is the L-shaped shell where
+min_d g_d lies in [T(l), T(l+1)), T(l) = l (l + 1) / 2 the triangular numbers, tiled by cells of
+edge w = l + 1 on a lattice starting at T(l) (the last cell of each row truncated at n). The level
+follows from the triangular root of min(g); the cell's lattice coordinates k_d = floor((g_d - T(l)) / w)
+have at least one zero. Cells are numbered level by level; inside a level, grouped by the first
+dimension j with k_j = 0 (dims before j count 1..K-1, dims after j count 0..K-1, row-major).
+For ns = 2, n = 9 this gives LSR18 Fig. 5's 28 cells. The forward map is O(ns) and is mirrored
+by ``kernels/psf/psf_space.cl``; the inverse (a list of boxes) lives in ``lab.psf_tracing.space``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+
+
+def triangular(l):
+    return l * (l + 1) // 2
+
+
+def triangular_root(g):
+    """Level l with T(l) <= g < T(l+1), for g >= 0 (float math, corrected by one integer step)."""
+    g = np.asarray(g, dtype=np.float64)
+    l = np.floor((np.sqrt(8.0 * g + 1.0) - 1.0) / 2.0).astype(np.int64)
+    l = np.where(triangular(l + 1) <= g, l + 1, l)
+    l = np.where(triangular(l) > g, l - 1, l)
+    return l
+
+
+@dataclass(frozen=True)
+class NestedGrid:
+    """The sampled PSF space of one model.
+
+    Parameters
+    ----------
+    n : int
+        Grid units per dimension (>= 1); the number of cells follows (see :attr:`size`).
+    beta : tuple of float
+        Power-remapping exponent per dimension (> 0; LSR18 Tbl. 1).
+    ranges : tuple of (lo, hi)
+        Physical range per dimension, hi > lo.
+    names : tuple of str
+        Name of each physical coordinate, for messages and reports.
+    """
+
+    n: int
+    beta: tuple
+    ranges: tuple
+    names: tuple
+    level_offsets: np.ndarray = field(init=False, repr=False, compare=False)
+    level_widths: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "beta", tuple(float(b) for b in self.beta))
+        object.__setattr__(self, "ranges", tuple((float(lo), float(hi)) for lo, hi in self.ranges))
+        object.__setattr__(self, "names", tuple(str(s) for s in self.names))
+        if not (isinstance(self.n, (int, np.integer)) and self.n >= 1):
+            raise InputError(f"PSF space n = {self.n!r}: must be an integer >= 1")
+        if not (len(self.beta) == len(self.ranges) == len(self.names) >= 1):
+            raise InputError(f"PSF space: beta {self.beta}, ranges {self.ranges} and names {self.names} "
+                             "must have one entry per dimension")
+        for b in self.beta:
+            if not (math.isfinite(b) and b > 0):
+                raise InputError(f"PSF space beta = {b}: must be a finite number > 0")
+        for name, (lo, hi) in zip(self.names, self.ranges):
+            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+                raise InputError(f"PSF space range of {name} = [{lo}, {hi}]: needs finite hi > lo")
+        levels = int(triangular_root(self.n - 1)) + 1 if self.n > 0 else 0
+        counts = []
+        for l in range(levels):
+            k = self.cells_per_row(l)
+            counts.append(k ** self.ns - (k - 1) ** self.ns)
+        object.__setattr__(self, "level_offsets", np.concatenate([[0], np.cumsum(counts)]).astype(np.int64))
+        object.__setattr__(self, "level_widths", np.arange(1, levels + 1, dtype=np.int64))
+
+    @property
+    def ns(self) -> int:
+        return len(self.beta)
+
+    @property
+    def levels(self) -> int:
+        return len(self.level_widths)
+
+    @property
+    def size(self) -> int:
+        """Number of cells (= PSF samples)."""
+        return int(self.level_offsets[-1])
+
+    def cells_per_row(self, level: int) -> int:
+        """K: lattice cells along one axis in ``level`` (the last one possibly truncated at n)."""
+        w = level + 1
+        return -(-(self.n - triangular(level)) // w)
+
+    @classmethod
+    def for_samples(cls, samples: int, beta, ranges, names) -> "NestedGrid":
+        """The smallest grid with n = T(L) (so no level is truncated) and at least ``samples`` cells."""
+        if not (isinstance(samples, (int, np.integer)) and samples >= 1):
+            raise InputError(f"PSF samples = {samples!r}: must be an integer >= 1")
+        level = 1
+        while True:
+            grid = cls(triangular(level), beta, ranges, names)
+            if grid.size >= samples:
+                return grid
+            level += 1
+
+    # --- coordinates -----------------------------------------------------------------------
+    def normalise(self, x) -> np.ndarray:
+        """Physical coordinates (..., ns) -> s in [0, 1]; out-of-range values are an error."""
+        x = np.asarray(x, dtype=np.float64)
+        if x.shape[-1:] != (self.ns,):
+            raise InputError(f"PSF coordinates have shape {x.shape}, need (..., {self.ns})")
+        lo = np.array([r[0] for r in self.ranges])
+        hi = np.array([r[1] for r in self.ranges])
+        s = (x - lo) / (hi - lo)
+        bad = ~((s >= 0.0) & (s <= 1.0))
+        if np.any(bad):
+            d = int(np.argwhere(bad)[0][-1])
+            value = x[bad][0]
+            raise InputError(f"PSF coordinate {self.names[d]} = {value}: outside the database range "
+                             f"[{self.ranges[d][0]}, {self.ranges[d][1]}]; rebuild the database with a "
+                             "larger range")
+        return s
+
+    def to_grid(self, s) -> np.ndarray:
+        """Normalised s in [0, 1] (..., ns) -> grid coordinates g in [0, n]."""
+        return self.n * np.power(np.asarray(s, dtype=np.float64), 1.0 / np.array(self.beta))
+
+    def from_grid(self, g) -> np.ndarray:
+        """Grid coordinates -> physical coordinates."""
+        s = np.power(np.asarray(g, dtype=np.float64) / self.n, np.array(self.beta))
+        lo = np.array([r[0] for r in self.ranges])
+        hi = np.array([r[1] for r in self.ranges])
+        return lo + s * (hi - lo)
+
+    def index_of_grid(self, g) -> np.ndarray:
+        """Forward map on grid coordinates (..., ns) in [0, n]^ns -> cell index (int64)."""
+        g = np.asarray(g, dtype=np.float64)
+        level = np.minimum(triangular_root(g.min(axis=-1)), self.levels - 1)
+        t0 = triangular(level)
+        w = level + 1
+        kmax = -(-(self.n - t0) // w)  # K per level
+        k = np.floor((g - t0[..., None]) / w[..., None]).astype(np.int64)
+        k = np.clip(k, 0, kmax[..., None] - 1)
+        is_zero = k == 0
+        j = np.argmax(is_zero, axis=-1)  # first dimension with k_j = 0 (exists by construction)
+        index = np.zeros(level.shape, dtype=np.int64)
+        # groups before j: count_j' = (K-1)^j' * K^(ns-1-j')
+        for jj in range(self.ns):
+            before = jj < j
+            index += np.where(before, (kmax - 1) ** jj * kmax ** (self.ns - 1 - jj), 0)
+        # rank inside group j: row-major over dims != j, radix K-1 (value k-1) before j, K after
+        rank = np.zeros_like(index)
+        for d in range(self.ns):
+            radix = np.where(d < j, kmax - 1, kmax)
+            digit = np.where(d < j, k[..., d] - 1, k[..., d])
+            use = d != j
+            rank = np.where(use, rank * radix + digit, rank)
+        return self.level_offsets[level] + index + rank
+
+    def index(self, x) -> np.ndarray:
+        """Forward map g(x): physical coordinates (..., ns) -> cell index, O(ns) per point."""
+        return self.index_of_grid(self.to_grid(self.normalise(x)))
+
+    def to_json(self) -> dict:
+        return {"n": int(self.n), "beta": list(self.beta), "ranges": [list(r) for r in self.ranges],
+                "names": list(self.names)}
+
+    @classmethod
+    def from_json(cls, data: dict) -> "NestedGrid":
+        return cls(int(data["n"]), tuple(data["beta"]), tuple(tuple(r) for r in data["ranges"]),
+                   tuple(data["names"]))

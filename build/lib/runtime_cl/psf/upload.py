@@ -1,0 +1,107 @@
+"""A spreadlet database uploaded to an OpenCL device, once, for every kernel that reads it."""
+from __future__ import annotations
+
+import numpy as np
+
+from runtime_cl.psf.database import SpreadletDatabase
+from runtime_cl.device.opencl import Device, event_ms, get_device
+from runtime_cl.psf.grid_cl import PsfSpaceTables
+
+
+def row_major_order(C: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """Permutation that sorts each sample's spreadlets by (dy, dx), samples kept in place.
+
+    Splatting a sample's spreadlets in this order writes the canvas row by row, left to right,
+    so consecutive writes share cache lines. Measured on the demo database (spreadlets stored by
+    (dx, dy), i.e. column by column): 357 -> 767 M spreadlets/s for the per-pixel splat kernel.
+    The sort is stable, so equal offsets (allowed) keep their stored order.
+    """
+    sample = np.repeat(np.arange(len(C) - 1), np.diff(C))
+    return np.lexsort((P[:, 0], P[:, 1], sample)) if len(P) else np.zeros(0, np.int64)
+
+
+def dense_row_spans(db: SpreadletDatabase) -> tuple:
+    """The non-zero part of every row of every dense PSF, so splatting skips the zero corners.
+
+    Returns
+    -------
+    span_off : ndarray, int64, (n + 1,)
+        Rows of sample i are span[span_off[i]:span_off[i + 1]] (2 r_i + 1 of them).
+    span : ndarray, int32, (rows, 2)
+        [first, end) columns of the row's non-zero pixels (any channel); (0, 0) if all zero.
+    pixels : ndarray, int64, (n,)
+        Pixels inside the spans of sample i: what its dense splat adds.
+
+    The benchmark's discs keep ~77 % of their square crops; skipping zeros changes no sum.
+    """
+    side = 2 * db.dense_radius.astype(np.int64) + 1
+    span_off = np.concatenate([[0], np.cumsum(side)])
+    span = np.zeros((int(span_off[-1]), 2), np.int32)
+    for i, s in enumerate(side):
+        nz = np.any(db.dense_psf(i) != 0, axis=-1)  # (s, s): row, column
+        has = nz.any(axis=1)
+        span[span_off[i]:span_off[i + 1], 0] = np.where(has, np.argmax(nz, axis=1), 0)
+        span[span_off[i]:span_off[i + 1], 1] = np.where(has, s - np.argmax(nz[:, ::-1], axis=1), 0)
+    width = (span[:, 1] - span[:, 0]).astype(np.int64)
+    pixels = np.add.reduceat(width, span_off[:-1]) if len(side) else np.zeros(0, np.int64)
+    return span_off, span, pixels
+
+
+class DeviceDatabase:
+    """Read-only device buffers of one :class:`SpreadletDatabase` plus its PSF-space tables.
+
+    The spreadlets of every sample are uploaded sorted by (dy, dx) (:func:`row_major_order`);
+    the file keeps its own order. A sample's sum of spreadlets does not depend on the order,
+    only its float rounding does.
+
+    Parameters
+    ----------
+    db : SpreadletDatabase
+        The database.
+    device : Device, optional
+        Default :func:`~runtime_cl.device.opencl.get_device`.
+
+    Attributes
+    ----------
+    buffers : dict of str -> pyopencl.Buffer
+        ``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n, dense_sum, psf_thr,
+        psf_bucket`` (``span*``, ``dense_n``: :func:`dense_row_spans`; ``dense_sum``: each dense
+        PSF's sum per channel, the energy a turned PSF keeps).
+    options : list of str
+        ``-D`` options every kernel reading this database needs (PSF space, DC, PAD).
+    base_options : list of str
+        ``options`` without PAD, for kernels that pad otherwise (rotated PSFs need more).
+    upload_ms : float
+        Time of the one-off upload (event profiling).
+    """
+
+    def __init__(self, db: SpreadletDatabase, device: Device | None = None):
+        import pyopencl as cl
+
+        self.db = db
+        self.device = device or get_device()
+        self.fp64 = self.device.fp64
+        self.tables = PsfSpaceTables(db.grid, self.fp64)
+        ctx, q = self.device.context, self.device.queue
+        order = row_major_order(db.C, db.P)
+        span_off, span, dense_n = dense_row_spans(db)
+        host = {
+            "C": db.C, "P": db.P[order], "V": db.V[order], "fast": db.fast_track.astype(np.uint8),
+            "dense_r": db.dense_radius, "dense_off": db.dense_offsets, "dense_v": db.dense_values,
+            "span_off": span_off, "span": span, "dense_n": dense_n,
+            "dense_sum": np.add.reduceat(db.dense_values, db.dense_offsets[:-1], axis=0,
+                                         dtype=np.float64).astype(np.float32),
+            "psf_thr": self.tables.thr, "psf_bucket": self.tables.bucket,
+        }
+        self.buffers, events = {}, []
+        for name, array in host.items():
+            array = np.ascontiguousarray(array)
+            # OpenCL refuses zero-sized buffers (a database without spreadlets is legal)
+            buf = cl.Buffer(ctx, cl.mem_flags.READ_ONLY, max(array.nbytes, 16))
+            if array.nbytes:
+                events.append(cl.enqueue_copy(q, buf, array, is_blocking=False))
+            self.buffers[name] = buf
+        self.upload_ms = event_ms(*events)
+        self.has_fast = bool(db.fast_track.any())
+        self.base_options = self.tables.options + [f"-DDC={db.channels}"]
+        self.options = self.base_options + [f"-DPAD={db.pad}"]

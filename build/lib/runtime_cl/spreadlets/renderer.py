@@ -1,0 +1,223 @@
+"""Render an image from labelled pixels with a spreadlet database: LSR18's method and baselines.
+
+``spreadlets`` (LSR18 section 6): each pixel splats its cell's spreadlets times its colour into
+a padded Laplacian canvas (fast-tracked cells splat their dense PSF into a second canvas); the
+Laplacian canvas is integrated exactly (``integrate.poisson_integrate``), the dense canvas added
+and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
+pixel gathers with its own PSF. All three use the same PSFs, so they differ only by method.
+
+Symmetries (LSR18 section 6): a database traced in one reference orientation is drawn with each
+pixel's PSF turned by a per-pixel angle (``render(..., angle=...)``; the coordinate maps of
+:mod:`runtime_cl.coords.maps` compute it). Without an angle the unrotated kernels run unchanged.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from runtime_cl.psf.database import SpreadletDatabase
+from runtime_cl.device.opencl import Device, as_f32, event_ms, get_device
+from runtime_cl.psf.upload import DeviceDatabase
+from runtime_cl.errors import InputError
+from runtime_cl.spreadlets.gather import GatherFilter
+from runtime_cl.integrate.poisson import poisson_integrate
+from runtime_cl.psf.grid_cl import check_coords
+from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter
+
+
+
+class Renderer:
+    """Renders images with one database; its buffers are uploaded once, kernels built lazily.
+
+    Parameters
+    ----------
+    db : SpreadletDatabase
+        The PSF database.
+    device : Device, optional
+        Default :func:`~runtime_cl.device.opencl.get_device`.
+    tile : int or (int, int), optional
+        Tile size of the splat kernels in input pixels; default
+        :func:`runtime_cl.spreadlets.splat.default_tile`.
+    run_max : int
+        Longest run of same-cell pixels the splat kernels splat together (default 32; 1 splats
+        pixel by pixel, as LSR18's one-thread-per-pixel loop). Applies to both splat methods.
+    spreadlet_rotation : {"bilinear", "nearest"}
+        How turned spreadlets land on pixels when :meth:`render` gets an angle (default
+        ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`).
+    """
+
+    def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
+                 run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear"):
+        if spreadlet_rotation not in SPREADLET_ROTATIONS:
+            raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
+                             f"{list(SPREADLET_ROTATIONS)}")
+        self.db = db
+        self.device = device or get_device()
+        self.ddb = DeviceDatabase(db, self.device)
+        self.tile = tile
+        self.run_max = run_max
+        self.spreadlet_rotation = spreadlet_rotation
+        self._wrappers: dict = {}
+
+    def _wrapper(self, method: str, channels: int, rotate: bool):
+        key = (method, channels, rotate)
+        if key not in self._wrappers:
+            self._wrappers[key] = METHODS[method].wrapper(self, channels, rotate)
+        return self._wrappers[key]
+
+    @property
+    def rotation_invariant(self) -> bool:
+        """The database records the symmetry ``rotation`` alone: its PSFs look the same at every
+        angle, so :meth:`render` ignores an angle (no resampling, the unrotated kernels' speed)."""
+        return self.db.params.get("symmetries") == ["rotation"]
+
+    def _angle(self, angle, shape) -> np.ndarray:
+        a = as_f32(angle, "angle", 2)
+        if a.shape != shape:
+            raise InputError(f"angle: shape {a.shape} does not match the image {shape}; need one angle "
+                             "(radians) per pixel, shape (H, W)")
+        if not np.all(np.isfinite(a)):
+            raise InputError(f"angle: {int(np.count_nonzero(~np.isfinite(a)))} value(s) are NaN or infinite; "
+                             "give every pixel a finite angle in radians (0: no rotation)")
+        return a
+
+    def render(self, colour, coords, method: str = "spreadlets", angle=None) -> tuple:
+        """Render one image.
+
+        Parameters
+        ----------
+        colour : array_like, float32, (H, W, C)
+            Linear radiance, C = 1 or 3; zero pixels splat nothing.
+        coords : array_like, float32, (H, W, ns)
+            PSF coordinates per pixel (for ``simple_lens``: |CoC radius| in pixels; every model's
+            map is in :mod:`runtime_cl.coords.maps`), inside the database's ranges.
+        method : {"spreadlets", "splat", "filter"}
+            LSR18's method or one of its two baselines (default ``"spreadlets"``).
+        angle : array_like, float, (H, W), optional
+            Per pixel, the angle in radians by which its stored PSF is turned, counter-clockwise
+            as the image is viewed (from image +x towards y up; image rows grow downward), as
+            :mod:`runtime_cl.coords.maps` computes it. Spreadlet offsets are turned and land
+            on pixels as ``spreadlet_rotation`` says; dense PSFs (Splat, fast track) and the
+            Filter's gather are turned by inverse bilinear mapping, scaled per channel to keep
+            each PSF's energy (``kernels/spreadlets/rotate.cl``). Multiples of 90 degrees are exact
+            permutations. Default None: no rotation, the unrotated kernels. Ignored for a
+            database whose only symmetry is ``rotation`` (:attr:`rotation_invariant`).
+
+        Returns
+        -------
+        image : ndarray, float32, (H, W, max(C, database channels))
+        timings : dict
+            Milliseconds: ``upload_ms``, ``kernel_ms`` (event profiling; split into
+            ``splat_ms``/``merge_ms`` or ``filter_ms``), ``integrate_ms``, ``download_ms``,
+            ``compile_ms`` (kernel builds this call needed; 0 once built), ``total_ms`` (wall
+            clock of the whole call); counts ``pixels``, ``spreadlets``, ``dense_pixels``
+            (splatted or gathered), ``tiles`` (splat work items; 0 for ``filter``);
+            ``rotated`` (whether the PSFs were turned).
+        """
+        import pyopencl as cl
+
+        start = time.perf_counter()
+        if method not in METHODS:
+            raise InputError(f"method = {method!r}: must be one of {list(METHODS)}")
+        colour = as_f32(colour, "colour", 3)
+        coords = as_f32(coords, "coords", 3)
+        h, w, ch = colour.shape
+        if ch not in (1, 3):
+            raise InputError(f"colour: {ch} channels, need 1 or 3 (shape (H, W, C))")
+        if coords.shape[:2] != (h, w):
+            raise InputError(f"coords: shape {coords.shape} does not match colour {colour.shape}; "
+                             "need one set of PSF coordinates per pixel")
+        if not np.all(np.isfinite(colour)):
+            raise InputError(f"colour: {int(np.count_nonzero(~np.isfinite(colour)))} value(s) are NaN "
+                             "or infinite; fix the input image")
+        if h * w == 0:
+            raise InputError(f"colour: empty image {colour.shape}")
+        check_coords(self.db.grid, coords)
+        if angle is not None:
+            angle = self._angle(angle, (h, w))
+        rotate = angle is not None and not self.rotation_invariant
+
+        builds_before = len(self.device.builds)
+        wrapper = self._wrapper(method, ch, rotate)
+        compile_ms = sum(b.ms for b in self.device.builds[builds_before:])
+
+        ctx, q = self.device.context, self.device.queue
+        mf = cl.mem_flags
+        colour_buf = cl.Buffer(ctx, mf.READ_ONLY, colour.nbytes)
+        coords_buf = cl.Buffer(ctx, mf.READ_ONLY, coords.nbytes)
+        ups = [cl.enqueue_copy(q, colour_buf, colour, is_blocking=False),
+               cl.enqueue_copy(q, coords_buf, coords, is_blocking=False)]
+        angle_buf = None
+        if rotate:
+            angle_buf = cl.Buffer(ctx, mf.READ_ONLY, angle.nbytes)
+            ups.append(cl.enqueue_copy(q, angle_buf, angle, is_blocking=False))
+        upload_ms = event_ms(*ups)
+        t = {"method": method, "pixels": h * w, "upload_ms": upload_ms, "compile_ms": compile_ms,
+             "rotated": rotate}
+        image, parts = METHODS[method].run(self, wrapper, colour_buf, coords_buf, h, w, angle_buf)
+        t.update(parts)
+        t["total_ms"] = (time.perf_counter() - start) * 1e3
+        return image, t
+
+
+class _Spreadlets:
+    """LSR18: spreadlets into a Laplacian canvas (fast-tracked cells dense into a second one),
+    integrated exactly, the dense canvas added."""
+
+    @staticmethod
+    def wrapper(r: Renderer, channels: int, rotate: bool):
+        return TileSplatter(r.ddb, channels, dense_all=False, run_max=r.run_max, rotate=rotate,
+                            spreadlet_rotation=r.spreadlet_rotation)
+
+    @staticmethod
+    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
+        out = wrapper.run(colour_buf, coords_buf, h, w, r.tile, angle_buf)
+        p, t0 = out.pad, time.perf_counter()
+        # an all-zero Laplacian integrates to zero; skip the FFT when nothing was splat
+        lap = out.canvas[0]
+        image = (poisson_integrate(lap)[p:p + h, p:p + w] if out.spreadlets
+                 else np.zeros((h, w, lap.shape[-1]), np.float32))
+        if out.canvas.shape[0] > 1:
+            image += out.canvas[1, p:p + h, p:p + w]
+        return image, _splat_times(out, (time.perf_counter() - t0) * 1e3)
+
+
+class _Splat:
+    """LSR18's Splat baseline: every pixel splats its dense PSF."""
+
+    @staticmethod
+    def wrapper(r: Renderer, channels: int, rotate: bool):
+        return TileSplatter(r.ddb, channels, dense_all=True, run_max=r.run_max, rotate=rotate,
+                            spreadlet_rotation=r.spreadlet_rotation)
+
+    @staticmethod
+    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
+        out = wrapper.run(colour_buf, coords_buf, h, w, r.tile, angle_buf)
+        p, t0 = out.pad, time.perf_counter()
+        image = out.canvas[0, p:p + h, p:p + w].copy()
+        return image, _splat_times(out, (time.perf_counter() - t0) * 1e3)
+
+
+class _Filter:
+    """LSR18's Filter baseline: every output pixel gathers with its own PSF."""
+
+    @staticmethod
+    def wrapper(r: Renderer, channels: int, rotate: bool):
+        return GatherFilter(r.ddb, channels, rotate=rotate)
+
+    @staticmethod
+    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
+        image, kernel_ms, download_ms, psf_px = wrapper.run(colour_buf, coords_buf, h, w, angle_buf)
+        return image, dict(filter_ms=kernel_ms, kernel_ms=kernel_ms, download_ms=download_ms,
+                           integrate_ms=0.0, spreadlets=0, dense_pixels=psf_px, tiles=0)
+
+
+def _splat_times(out, integrate_ms: float) -> dict:
+    return dict(splat_ms=out.splat_ms, merge_ms=out.merge_ms, kernel_ms=out.splat_ms + out.merge_ms,
+                download_ms=out.download_ms, integrate_ms=integrate_ms, spreadlets=out.spreadlets,
+                dense_pixels=out.dense_pixels, tiles=out.tiles)
+
+
+# The methods a Renderer runs, by name: LSR18's method and its two baselines.
+METHODS = {"spreadlets": _Spreadlets, "splat": _Splat, "filter": _Filter}

@@ -32,7 +32,8 @@ class GatherFilter:
         self.rotate = bool(rotate)
         options = ddb.options + [f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
                                  f"-DROTATE={int(self.rotate)}"]
-        files = ("psf/psf_space.cl", "spreadlets/rotate.cl", "spreadlets/gather.cl") if self.rotate else ("psf/psf_space.cl", "spreadlets/gather.cl")
+        rotate = ("spreadlets/rotate.cl",) if self.rotate else ()
+        files = ("psf/psf_space.cl", "prelude/pixels.cl") + rotate + ("spreadlets/gather.cl",)
         program, self.build = self.device.program(files, options)
         self.kernel = cl.Kernel(program, "filter_gather")
         self.kernel.set_scalar_arg_dtypes([None] * 11 + [np.int32] * 2)

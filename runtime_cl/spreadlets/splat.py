@@ -127,7 +127,8 @@ class TileSplatter:
                                       f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}",
                                       f"-DROTATE={int(self.rotate)}",
                                       f"-DSPREADLET_BILINEAR={int(spreadlet_rotation == 'bilinear')}"]
-        files = ("psf/psf_space.cl", "spreadlets/rotate.cl", "spreadlets/splat.cl") if self.rotate else ("psf/psf_space.cl", "spreadlets/splat.cl")
+        rotate = ("spreadlets/rotate.cl",) if self.rotate else ()
+        files = ("psf/psf_space.cl", "prelude/pixels.cl") + rotate + ("spreadlets/splat.cl",)
         program, self.build = self.device.program(files, options)
         self.splat_kernel = cl.Kernel(program, "splat_tiles")
         self.splat_kernel.set_scalar_arg_dtypes([None] * 18 + [np.int32] * 5)

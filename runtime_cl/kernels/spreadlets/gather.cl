@@ -9,23 +9,7 @@
 #define ROTATE 0
 #endif
 
-#if OC == 1
-typedef float pix_t;
-#define DB_VALUE(v, j) ((v)[(j)])
-#define COLOUR(c, i) ((c)[(i)])
-#else
-typedef float4 pix_t;
-#if DC == 1
-#define DB_VALUE(v, j) ((float4)((v)[(j)]))
-#else
-#define DB_VALUE(v, j) ((float4)((v)[3 * (j)], (v)[3 * (j) + 1], (v)[3 * (j) + 2], 0.0f))
-#endif
-#if CC == 1
-#define COLOUR(c, i) ((float4)((c)[(i)], (c)[(i)], (c)[(i)], 0.0f))
-#else
-#define COLOUR(c, i) ((float4)((c)[3 * (i)], (c)[3 * (i) + 1], (c)[3 * (i) + 2], 0.0f))
-#endif
-#endif
+// pix_t, DB_VALUE, COLOUR: prelude/pixels.cl
 
 #if ROTATE
 

@@ -11,12 +11,7 @@
 // integer offsets with no rounding anywhere.
 // Build options: DC (database channels) as in spreadlets/splat.cl.
 
-// a float4 accumulator as the output pixel type (OC: output channels, a build option)
-#if OC == 1
-#define TO_PIX(v) ((v).x)
-#else
-#define TO_PIX(v) (v)
-#endif
+// TO_PIX (a float4 accumulator as the output pixel): prelude/pixels.cl
 
 inline float2 rotation_cs(const float angle) {
     const float a = fmod(angle, 2.0f * M_PI_F);  // exact; |a| < 2 pi keeps the quarter index small

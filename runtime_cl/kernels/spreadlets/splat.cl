@@ -55,25 +55,7 @@
 typedef float8 float8_a16 __attribute__((aligned(16)));
 typedef float16 float16_a16 __attribute__((aligned(16)));
 
-#if OC == 1
-typedef float pix_t;
-#define DB_VALUE(v, j) ((v)[(j)])
-#define COLOUR(c, i) ((c)[(i)])
-#define IS_ZERO(v) ((v) == 0.0f)
-#else
-typedef float4 pix_t;
-#define IS_ZERO(v) all((v) == (float4)0.0f)  // vector compares give -1 per true lane
-#if DC == 1
-#define DB_VALUE(v, j) ((float4)((v)[(j)]))
-#else
-#define DB_VALUE(v, j) ((float4)((v)[3 * (j)], (v)[3 * (j) + 1], (v)[3 * (j) + 2], 0.0f))
-#endif
-#if CC == 1
-#define COLOUR(c, i) ((float4)((c)[(i)], (c)[(i)], (c)[(i)], 0.0f))
-#else
-#define COLOUR(c, i) ((float4)((c)[3 * (i)], (c)[3 * (i) + 1], (c)[3 * (i) + 2], 0.0f))
-#endif
-#endif
+// pix_t, DB_VALUE, COLOUR, IS_ZERO: prelude/pixels.cl
 
 // One dense PSF row (side pixels of values dv) times colour col, added at row[0 .. side).
 inline void dense_row(__global pix_t *row, const pix_t col, const int side, __global const float *dv) {

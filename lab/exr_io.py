@@ -22,11 +22,9 @@ import numpy as np
 import OpenEXR
 
 from runtime_cl.atomic_file import atomic_path
-from runtime_cl.camera.thin_lens import ThinLens
 
-from .config import from_table
+from .cameras import header_camera
 from .errors import UserError
-from .optics.iris import Iris
 
 CAMERA_ATTR = "splatlab.camera"
 FORMAT_ATTR = "splatlab.format"
@@ -144,33 +142,10 @@ def _check_shutter(data: dict, source: str):
         raise UserError(f"{source}: shutter = {shutter!r} must be [open, close] with open <= close")
 
 
-def _check_pinhole(data: dict, source: str):
-    unknown = sorted(set(data) - {"lens", "fov_x_deg", "shutter"})
-    if unknown:
-        raise UserError(f"{source}: unknown key(s) {unknown} for a pinhole; known: fov_x_deg, shutter")
-    fov = data.get("fov_x_deg")
-    if not (isinstance(fov, (int, float)) and 0 < fov < 180):
-        raise UserError(f"{source}: fov_x_deg = {fov!r} must be a number of degrees in (0, 180)")
-
-
-def _check_thin(data: dict, source: str):
-    ThinLens.from_json(data, source)
-    if "aperture" in data:
-        from_table(Iris, data["aperture"], f"{source} aperture")
-
-
-# One validator per lens model (thick lenses register theirs here).
-CAMERA_VALIDATORS = {"thin": _check_thin, "pinhole": _check_pinhole}
-
-
 def validate_camera(data, source: str) -> dict:
-    """Check a ``splatlab.camera`` JSON object; return it unchanged or raise naming ``source``."""
-    if not isinstance(data, dict):
-        raise UserError(f"{source}: the camera must be a JSON object, got {data!r}")
-    lens = data.get("lens")
-    if lens not in CAMERA_VALIDATORS:
-        raise UserError(f"{source}: lens = {lens!r} is not known; use one of {sorted(CAMERA_VALIDATORS)}")
-    CAMERA_VALIDATORS[lens](data, source)
+    """Check a ``splatlab.camera`` JSON object (by its lens: :func:`lab.cameras.header_camera`,
+    then the shutter); return it unchanged or raise naming ``source``."""
+    header_camera(data, source)
     _check_shutter(data, source)
     return data
 

@@ -1,15 +1,16 @@
 """Which effects a scene calls for, and so what to precompute, render and run (``splatlab plan``).
 
-Each camera model registers a rule that fills in its part of the plan; effects the scene files
-cannot express yet (motion, media, glass) are listed as skipped with the reason, so a plan always
-says what it will *not* do. A thin lens with a polygonal iris runs MHU21's exact polygon splatting
-(single layer, depth layers, layered input) against a Mitsuba reference through that iris.
+Each camera model (:mod:`lab.cameras`) has a plan rule, :meth:`lab.cameras.Camera.plan`, that
+fills in its part of the plan: depth of field, aperture, PSF models, references, runtime passes.
+Effects the scene files cannot express yet (motion, media, glass) are listed as skipped with the
+reason, so a plan always says what it will *not* do.
+
+The camera modules import :class:`Step` from here, so this module does not import the scene
+module (which imports them).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-from .scene import Scene
 
 
 @dataclass(frozen=True)
@@ -72,77 +73,12 @@ class Plan:
         return "\n".join(lines)
 
 
-def _dof(scene: Scene) -> str:
-    lens = scene.camera.thin_lens()
-    return (f"thin ({lens.focal_length_mm:g} mm f/{lens.f_number:.3g}, "
-            f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)")
-
-
-def _thin(scene: Scene) -> dict:
-    if scene.camera.iris() is not None:
-        return _thin_iris(scene)
-    r = scene.render
-    return {
-        "dof": _dof(scene),
-        "aperture": "circle",
-        "psf_models": ("simple_lens",),
-        "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens, "
-                                                f"{r.reference_spp} spp, max depth {r.max_depth}"),),
-        "runtime_passes": ("spreadlets", "splat", "filter"),
-        "skipped": (),
-    }
-
-
-def _thin_iris(scene: Scene) -> dict:
-    iris, r = scene.camera.iris(), scene.render
-    passes = ("polygon", "polygon_layers") + (("polygon_layered_input",) if scene.input_layers() else ())
-    skipped = [Step("PSF precompute and sparsify", "MHU21's flat polygon kernel is exact: no PSF database"),
-               Step("spreadlets, splat, filter", "their database traces the round aperture; the iris "
-                                                 "runs through the polygon passes")]
-    if not iris.point_symmetric:
-        skipped.append(Step("180-degree turn of the bokeh in front of the focus plane",
-                            f"the polygon runtime draws the upright iris everywhere ({iris.blades} blades "
-                            "are not point-symmetric)"))
-    if not scene.input_layers():
-        skipped.append(Step("polygon_layered_input", "no [[shapes]] has a layer key, so there is no "
-                                                     "layered input"))
-    return {
-        "dof": _dof(scene),
-        "aperture": (f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, "
-                     f"rounding {iris.rounding:g})"),
-        "psf_models": (),
-        "references": (Step("mitsuba_polygon_lens", f"Mitsuba path trace through the thin lens with the "
-                                                    f"{iris.blades}-blade iris (lab.reference.polygon_lens), "
-                                                    f"{r.reference_spp} spp, max depth {r.max_depth}"),),
-        "runtime_passes": passes,
-        "skipped": tuple(skipped),
-    }
-
-
-def _pinhole(scene: Scene) -> dict:
-    r = scene.render
-    return {
-        "dof": "none",
-        "aperture": "none (pinhole)",
-        "psf_models": (),
-        "references": (Step("pinhole", f"the pinhole render is the reference "
-                                       f"({r.reference_spp} spp, max depth {r.max_depth})"),),
-        "runtime_passes": ("identity",),
-        "skipped": (Step("PSF precompute and sparsify", "a pinhole camera has no defocus: every PSF "
-                                                        "is a delta"),),
-    }
-
-
-# One rule per camera model (thick lenses add theirs).
-DOF_RULES = {"thin": _thin, "pinhole": _pinhole}
-
-
-def make_plan(scene: Scene) -> Plan:
+def make_plan(scene) -> Plan:
     """Decide the effects, PSF models, references, inputs and runtime passes for ``scene``.
 
     Parameters
     ----------
-    scene : Scene
+    scene : lab.scene.Scene
         A validated scene (:func:`lab.scene.load_scene`).
 
     Returns
@@ -150,7 +86,7 @@ def make_plan(scene: Scene) -> Plan:
     Plan
         ``plan.describe()`` is the text of ``splatlab plan SCENE``.
     """
-    rule = DOF_RULES[scene.camera.model](scene)
+    rule = scene.camera.plan(scene)
     r = scene.render
     skipped = list(rule["skipped"]) + [
         Step("motion blur", "the scene has no moving objects or camera motion"),

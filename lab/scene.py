@@ -4,29 +4,21 @@ A scene file has the tables ``[scene]`` (name, resolution), ``[camera]``, ``[ren
 ``[materials.NAME]``, ``[[shapes]]``, ``[[emitters]]``, ``[psf.MODEL]`` and ``[precompute]``.
 Every table goes through :func:`lab.config.from_table`, so unknown keys are errors that name the
 file, the table and the known keys. Materials, shapes and emitters live in
-:mod:`lab.scene_objects`; the camera is here because the EXR header and the PSF models need it.
+:mod:`lab.scene_objects`; the ``[camera]`` table is read by its model's class in :mod:`lab.cameras`.
 
 Units: positions in metres, focal length and sensor width in millimetres, angles in degrees.
 """
 from __future__ import annotations
 
-import math
 import tomllib
-import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
-from runtime_cl.camera.thin_lens import ThinLens
-
+from .cameras import Camera, parse_camera
 from .config import from_table, to_table
 from .errors import UserError
-from .optics.iris import Iris
 from .scene_objects import Emitter, Material, Shape, parse_material, parse_shape, strip_none
 
-Vec3 = tuple[float, float, float]
-CAMERA_MODELS = ("pinhole", "thin")
 SECTIONS = ("scene", "camera", "render", "materials", "shapes", "emitters", "psf", "precompute")
 
 
@@ -42,131 +34,6 @@ class SceneInfo:
         if w <= 0 or h <= 0:
             raise UserError(f"resolution = {list(self.resolution)}: width and height must be > 0 "
                             "pixels, e.g. resolution = [1024, 1024]")
-
-
-@dataclass(frozen=True)
-class Camera:
-    """``[camera]``: a pinhole or thin-lens camera placed with a look-at frame.
-
-    Parameters
-    ----------
-    model : {"pinhole", "thin"}
-    position, look_at, up : (3,) float
-        Camera position and target in metres; ``up`` (default +y) fixes the roll. Mitsuba's
-        look-at frame is right-handed: looking along +z with up +y, world +x is on the image's left.
-    focal_length_mm : float, optional
-        Required for "thin"; for "pinhole" an alternative to ``fov_deg``.
-    f_number, aperture_radius_mm : float, optional
-        Thin lens only, exactly one of them; the aperture radius is f / (2 N).
-    focus_distance_m : float, optional
-        Thin lens only: distance of the plane in focus along the optical axis (> focal length).
-    sensor_width_mm : float
-        Sensor width (default 36 mm); the image width spans it.
-    fov_deg : float, optional
-        Pinhole only: horizontal field of view in degrees (0 < fov < 180).
-    aperture : dict, optional
-        Thin lens only: a polygonal iris instead of the round aperture,
-        ``{ blades = 6, rotation_deg = 0, rounding = 0 }`` (:class:`lab.optics.iris.Iris`); its
-        circumradius is the aperture radius f / (2 N).
-    """
-
-    model: str
-    position: Vec3
-    look_at: Vec3
-    up: Vec3 = (0.0, 1.0, 0.0)
-    focal_length_mm: float | None = None
-    f_number: float | None = None
-    aperture_radius_mm: float | None = None
-    focus_distance_m: float | None = None
-    sensor_width_mm: float = 36.0
-    fov_deg: float | None = None
-    aperture: typing.Any = None
-
-    def __post_init__(self):
-        if self.model not in CAMERA_MODELS:
-            raise UserError(f"model = {self.model!r} is not a camera model; use one of {list(CAMERA_MODELS)}")
-        view = np.subtract(self.look_at, self.position)
-        if not np.linalg.norm(view) > 0:
-            raise UserError(f"look_at = {list(self.look_at)} equals position; look at another point")
-        if np.linalg.norm(np.cross(view, self.up)) <= 1e-9 * np.linalg.norm(view) * np.linalg.norm(self.up):
-            raise UserError(f"up = {list(self.up)} is zero or parallel to the view direction; "
-                            "use a vector across it, e.g. up = [0, 1, 0]")
-        for key in ("focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm"):
-            value = getattr(self, key)
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise UserError(f"{key} = {value!r} must be a finite number > 0")
-        if self.aperture_radius_mm is not None and not (math.isfinite(self.aperture_radius_mm)
-                                                        and self.aperture_radius_mm > 0):
-            raise UserError(f"aperture_radius_mm = {self.aperture_radius_mm!r}: the aperture radius "
-                            "must be > 0 mm (use model = 'pinhole' for an all-sharp image)")
-        (self._check_thin if self.model == "thin" else self._check_pinhole)()
-        self.iris()  # validates the aperture table
-
-    def iris(self) -> Iris | None:
-        """The polygonal iris of ``aperture``, ``None`` for a round aperture (or a pinhole)."""
-        if self.aperture is not None and not isinstance(self.aperture, dict):
-            raise UserError(f"aperture = {self.aperture!r}: write the iris as a table, e.g. aperture = "
-                            "{ blades = 6, rotation_deg = 0 }, or remove it for a round aperture")
-        return None if self.aperture is None else from_table(Iris, self.aperture, "aperture")
-
-    def _check_thin(self):
-        if self.focal_length_mm is None or self.focus_distance_m is None:
-            raise UserError("a thin lens needs focal_length_mm and focus_distance_m")
-        if (self.f_number is None) == (self.aperture_radius_mm is None):
-            raise UserError(f"give exactly one of f_number ({self.f_number}) and aperture_radius_mm "
-                            f"({self.aperture_radius_mm}); remove the other")
-        if self.fov_deg is not None:
-            raise UserError(f"fov_deg = {self.fov_deg}: a thin lens's field of view follows from "
-                            "focal_length_mm, sensor_width_mm and focus_distance_m; remove fov_deg")
-        if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
-            raise UserError(f"focus_distance_m = {self.focus_distance_m} is closer than the focal length "
-                            f"({self.focal_length_mm} mm); use a focus distance > "
-                            f"{self.focal_length_mm / 1000.0} m")
-
-    def _check_pinhole(self):
-        thin_only = [k for k in ("f_number", "aperture_radius_mm", "focus_distance_m", "aperture")
-                     if getattr(self, k) is not None]
-        if thin_only:
-            raise UserError(f"{thin_only} describe a lens aperture; a pinhole has none: remove them "
-                            "or set model = 'thin'")
-        if (self.fov_deg is None) == (self.focal_length_mm is None):
-            raise UserError("a pinhole needs exactly one of fov_deg and focal_length_mm "
-                            "(with sensor_width_mm)")
-        if self.fov_deg is not None and not 0.0 < self.fov_deg < 180.0:
-            raise UserError(f"fov_deg = {self.fov_deg} must be between 0 and 180 degrees")
-
-    def thin_lens(self) -> ThinLens | None:
-        """The :class:`runtime_cl.camera.thin_lens.ThinLens` of a thin-lens camera, ``None`` for a pinhole."""
-        if self.model != "thin":
-            return None
-        n = self.f_number
-        if n is None:  # aperture radius a = f / (2 N)
-            n = self.focal_length_mm / (2.0 * self.aperture_radius_mm)
-        return ThinLens(focal_length_mm=self.focal_length_mm, f_number=n,
-                        focus_distance_m=self.focus_distance_m, sensor_width_mm=self.sensor_width_mm)
-
-    def fov_x_deg(self) -> float:
-        """Horizontal field of view in degrees (a thin lens includes focus breathing)."""
-        lens = self.thin_lens()
-        if lens is not None:
-            return lens.fov_x_deg()
-        if self.fov_deg is not None:
-            return self.fov_deg
-        return math.degrees(2.0 * math.atan(self.sensor_width_mm / (2.0 * self.focal_length_mm)))
-
-    def forward(self) -> np.ndarray:
-        """Unit optical axis (world space): depth Z is measured along it."""
-        view = np.subtract(self.look_at, self.position, dtype=np.float64)
-        return view / np.linalg.norm(view)
-
-    def camera_json(self) -> dict:
-        """The ``splatlab.camera`` EXR header contents (DESIGN.md contract)."""
-        lens = self.thin_lens()
-        data = lens.to_json() if lens is not None else {"lens": "pinhole", "fov_x_deg": self.fov_x_deg()}
-        if self.aperture is not None:
-            data["aperture"] = self.iris().to_json()
-        data["shutter"] = [0.0, 1.0]
-        return data
 
 
 @dataclass(frozen=True)
@@ -266,7 +133,7 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
         if key not in data:
             raise UserError(f"{source}: missing the [{key}] table")
     info = from_table(SceneInfo, _table(data, "scene", source), f"{source} [scene]")
-    camera = from_table(Camera, _table(data, "camera", source), f"{source} [camera]")
+    camera = parse_camera(_table(data, "camera", source), f"{source} [camera]")
     render = from_table(RenderSettings, _table(data, "render", source, default={}), f"{source} [render]")
     materials = {name: parse_material(table, f"{source} [materials.{name}]")
                  for name, table in _table(data, "materials", source, default={}).items()}
@@ -331,10 +198,10 @@ def load_camera(path) -> Camera:
 
     Returns
     -------
-    Camera
+    lab.cameras.Camera
         Use ``load_camera(path).camera_json()`` as the EXR camera override.
     """
     data = _read_toml(path)
     if "camera" not in data:
         raise UserError(f"{path}: no [camera] table; a --camera file needs one (see scenes/demo.toml)")
-    return from_table(Camera, _table(data, "camera", str(path)), f"{path} [camera]")
+    return parse_camera(_table(data, "camera", str(path)), f"{path} [camera]")

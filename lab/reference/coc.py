@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from runtime_cl.camera.thin_lens import ThinLens
+from runtime_cl.camera import from_header
 
 from ..errors import UserError
 from ..exr_io import LabelledImage
@@ -53,15 +53,16 @@ def depth_range(image) -> tuple[float, float]:
     return float(z.min()), float(z.max())
 
 
-def coc_range(image: LabelledImage, lens: ThinLens | None = None) -> CocRange:
+def coc_range(image: LabelledImage, lens=None) -> CocRange:
     """Signed CoC range in pixels over ``image``: what the PSF database must cover.
 
     Parameters
     ----------
     image : LabelledImage
         Its Z and width (pixels) are used.
-    lens : ThinLens, optional
-        Default: the image's ``splatlab.camera``. A pinhole camera has no defocus: [0, 0].
+    lens : runtime camera, optional
+        A :mod:`runtime_cl.camera` camera, e.g. ``ThinLens``; default: the image's
+        ``splatlab.camera``. A pinhole camera has no defocus: [0, 0].
 
     Returns
     -------
@@ -69,8 +70,6 @@ def coc_range(image: LabelledImage, lens: ThinLens | None = None) -> CocRange:
         ``max_abs_px`` is the largest |CoC| radius anywhere in the image.
     """
     z_min, z_max = depth_range(image)
-    if lens is None and image.camera.get("lens") == "pinhole":
-        return CocRange(z_min, z_max, 0.0, 0.0)
-    lens = lens or ThinLens.from_json(image.camera, "camera header")
+    lens = lens or from_header(image.camera, "camera header")
     r = lens.coc_radius_px(np.array([z_min, z_max]), image.width)
     return CocRange(z_min, z_max, float(r[0]), float(r[1]))

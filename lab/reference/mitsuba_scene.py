@@ -1,9 +1,10 @@
 """Scene dataclasses -> one Mitsuba scene dict, shared by the reference and the pinhole input.
 
 Both renders see the same objects, lights and view (look-at frame, horizontal field of view);
-only the sensor differs: ``thinlens`` (aperture radius f / 2N, planar focus distance), the same
-lens with a polygonal iris (:mod:`lab.reference.polygon_lens`) or ``perspective``. The box pixel filter makes each pixel the exact integral over its own area, the
-same footprint for the reference and the input.
+only the sensor differs: the input's is a ``perspective`` (pinhole) sensor, the reference's the
+one the scene's camera model makes of it (:meth:`lab.cameras.Camera.mitsuba_sensor`: e.g.
+``thinlens``, or the thin lens with a polygonal iris). The box pixel filter makes each pixel the
+exact integral over its own area, the same footprint for the reference and the input.
 """
 from __future__ import annotations
 
@@ -72,17 +73,7 @@ def sensor_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
                  "pixel_format": "rgb", "component_format": "float32", "rfilter": {"type": "box"}},
         "sampler": {"type": "independent", "sample_count": int(spp)},
     }
-    lens, iris = cam.thin_lens(), cam.iris()
-    if sensor == "scene" and lens is not None:
-        out.update(type="thinlens", aperture_radius=lens.aperture_radius_m,
-                   focus_distance=lens.focus_distance_m)
-        if iris is not None:
-            from .polygon_lens import register
-
-            del out["fov_axis"]   # the plugin's fov is horizontal
-            out.update(type=register(), blades=iris.blades, rotation_deg=iris.rotation_deg,
-                       rounding=iris.rounding)
-    return out
+    return cam.mitsuba_sensor(out) if sensor == "scene" else out
 
 
 def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
@@ -93,8 +84,9 @@ def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
     scene : Scene
         A validated scene.
     sensor : {"scene", "pinhole"}
-        ``"scene"``: the scene's own camera (``thinlens`` for a thin lens); ``"pinhole"``: a
-        ``perspective`` sensor with the same position, orientation and horizontal fov.
+        ``"scene"``: the scene's own camera (its model's :meth:`~lab.cameras.Camera.mitsuba_sensor`,
+        ``thinlens`` for a thin lens); ``"pinhole"``: a ``perspective`` sensor with the same
+        position, orientation and horizontal fov.
     spp : int
         Samples per pixel stored in the sampler (``mi.render(spp=...)`` may override it).
     """

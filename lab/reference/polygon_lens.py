@@ -1,6 +1,7 @@
 """A Mitsuba 3 thin-lens sensor with a polygonal iris: the reference for polygonal bokeh.
 
-Mitsuba's ``thinlens`` samples a disc. This Python sensor (``mi.register_sensor``) is the same
+Mitsuba's ``thinlens`` samples a disc. This Python sensor (``mi.register_sensor``; a thin-lens
+camera with an iris chooses it, :meth:`lab.cameras.thin.ThinCamera.mitsuba_sensor`) is the same
 camera with the lens point drawn uniformly from :class:`lab.optics.aperture.PolygonAperture`
 (the lab's one iris sampler) scaled to the aperture radius, its circumradius: the pinhole ray of
 the position sample fixes the point on the planar focus plane at ``focus_distance`` (camera

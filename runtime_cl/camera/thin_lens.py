@@ -15,15 +15,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
-import numpy as np
-
+from runtime_cl.camera.common import depth_m, register_lens
 from runtime_cl.errors import InputError
 
 
+@register_lens("thin")
 @dataclass(frozen=True)
 class ThinLens:
-    """A thin lens camera, units as in the ``splatlab.camera`` header.
+    """A thin lens camera, units as in the ``splatlab.camera`` header (``"lens": "thin"``).
 
     Parameters
     ----------
@@ -37,6 +38,7 @@ class ThinLens:
         Sensor width in millimetres (> 0); the image width in pixels spans it.
     """
 
+    lens: ClassVar[str]
     focal_length_mm: float
     f_number: float
     focus_distance_m: float
@@ -75,16 +77,10 @@ class ThinLens:
 
         ``z_m`` may be a scalar or array; ``inf`` is allowed (background), z <= 0 or NaN is not.
         """
-        z = np.asarray(z_m, dtype=np.float64)
-        bad = ~(z > 0)  # catches NaN too
-        if np.any(bad):
-            first = float(z[bad].flat[0])
-            raise InputError(f"depth Z = {first!r} at {int(bad.sum())} pixel(s): depths must be > 0 "
-                             "metres (use inf for background at infinity)")
-        return self.coc_scale_px(width_px) * (1.0 / self.focus_distance_m - 1.0 / z)
+        return self.coc_scale_px(width_px) * (1.0 / self.focus_distance_m - 1.0 / depth_m(z_m))
 
     def to_json(self) -> dict:
-        return {"lens": "thin", "focal_length_mm": self.focal_length_mm, "f_number": self.f_number,
+        return {"lens": self.lens, "focal_length_mm": self.focal_length_mm, "f_number": self.f_number,
                 "focus_distance_m": self.focus_distance_m, "sensor_width_mm": self.sensor_width_mm}
 
     @classmethod
@@ -94,8 +90,8 @@ class ThinLens:
         An ``aperture`` entry (a polygonal iris, ``{"blades": 6, ...}``) does not change the CoC,
         which is the iris's circumradius; the polygon path reads it.
         """
-        if data.get("lens") != "thin":
-            raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs 'thin'")
+        if data.get("lens") != cls.lens:
+            raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
         known = {"lens", "focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm", "shutter",
                  "aperture"}
         unknown = sorted(set(data) - known)

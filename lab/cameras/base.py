@@ -1,0 +1,178 @@
+"""Camera models: the registry (by the ``[camera]`` table's ``model``) and the base class.
+
+A camera model is a frozen dataclass of its ``[camera]`` keys, subclassing :class:`Camera` (which
+holds the keys every camera has: the look-at frame and the sensor width), registered with
+:func:`register_camera`. It declares, in its one module:
+
+- its scene keys: its fields, checked in :meth:`Camera.check` (and :meth:`Camera.parse` for
+  messages about keys it does not take);
+- its runtime twin: ``runtime``, the :mod:`runtime_cl.camera` class registered under the same
+  name as the model, which is also the header's ``"lens"``; :meth:`Camera.runtime_camera` builds it;
+- its EXR header: :meth:`Camera.camera_json`, and :meth:`Camera.check_header` for what the lab
+  checks in a header beyond the twin's ``from_json``;
+- its plan rule: :meth:`Camera.plan` (see :func:`lab.plan.make_plan`);
+- its Mitsuba sensor: :meth:`Camera.mitsuba_sensor`.
+"""
+from __future__ import annotations
+
+import abc
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from runtime_cl.camera import from_header
+
+from ..config import from_table
+from ..errors import UserError
+from ..registry import Registry
+
+__all__ = ["Camera", "Vec3", "camera_names", "get_camera", "header_camera", "parse_camera",
+           "register_camera"]
+
+Vec3 = tuple[float, float, float]
+
+_CAMERAS = Registry("camera model")
+register_camera = _CAMERAS.register
+camera_names = _CAMERAS.names
+get_camera = _CAMERAS.get
+
+
+@dataclass(frozen=True)
+class Camera(abc.ABC):
+    """``[camera]``: a camera placed with a look-at frame; subclasses add their model's keys.
+
+    Parameters
+    ----------
+    model : str
+        The registered name of the subclass, e.g. ``"thin"``.
+    position, look_at, up : (3,) float
+        Camera position and target in metres; ``up`` (default +y) fixes the roll. Mitsuba's
+        look-at frame is right-handed: looking along +z with up +y, world +x is on the image's left.
+    sensor_width_mm : float
+        Sensor width (default 36 mm); the image width spans it.
+    """
+
+    name: ClassVar[str]
+    runtime: ClassVar[type]
+    model: str
+    position: Vec3
+    look_at: Vec3
+    up: Vec3 = (0.0, 1.0, 0.0)
+    sensor_width_mm: float = 36.0
+
+    def __post_init__(self):
+        if self.model != self.name:
+            raise ValueError(f"model = {self.model!r}: a {type(self).__name__} is model {self.name!r}")
+        view = np.subtract(self.look_at, self.position)
+        if not np.linalg.norm(view) > 0:
+            raise UserError(f"look_at = {list(self.look_at)} equals position; look at another point")
+        if np.linalg.norm(np.cross(view, self.up)) <= 1e-9 * np.linalg.norm(view) * np.linalg.norm(self.up):
+            raise UserError(f"up = {list(self.up)} is zero or parallel to the view direction; "
+                            "use a vector across it, e.g. up = [0, 1, 0]")
+        self.check()
+
+    def check_positive(self, *keys: str) -> None:
+        """UserError unless each of ``keys`` is None or a finite number > 0."""
+        for key in keys:
+            value = getattr(self, key)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise UserError(f"{key} = {value!r} must be a finite number > 0")
+
+    @classmethod
+    def parse(cls, table: dict, where: str) -> "Camera":
+        """The camera of a ``[camera]`` table; ``where`` names the file and table in errors.
+
+        Models override it to explain keys that belong to another model before
+        :func:`lab.config.from_table` rejects them as unknown.
+        """
+        return from_table(cls, table, where)
+
+    @abc.abstractmethod
+    def check(self) -> None:
+        """UserError unless the model's keys describe a camera (called on construction)."""
+
+    @abc.abstractmethod
+    def runtime_camera(self):
+        """The runtime twin (an instance of ``runtime``) with this camera's parameters."""
+
+    def thin_lens(self):
+        """The :class:`runtime_cl.camera.thin_lens.ThinLens` that models this camera's defocus
+        (what the thin-lens PSF models and CoC ranges use); ``None`` for a camera without defocus."""
+        return None
+
+    def fov_x_deg(self) -> float:
+        """Horizontal field of view in degrees (a thin lens includes focus breathing)."""
+        return self.runtime_camera().fov_x_deg()
+
+    def forward(self) -> np.ndarray:
+        """Unit optical axis (world space): depth Z is measured along it."""
+        view = np.subtract(self.look_at, self.position, dtype=np.float64)
+        return view / np.linalg.norm(view)
+
+    @abc.abstractmethod
+    def camera_json(self) -> dict:
+        """The ``splatlab.camera`` EXR header contents (DESIGN.md contract)."""
+
+    @classmethod
+    def check_header(cls, data: dict, source: str) -> None:
+        """UserError naming ``source`` for header entries the runtime twin does not check; by
+        default there are none."""
+
+    @abc.abstractmethod
+    def plan(self, scene) -> dict:
+        """This camera's part of :func:`lab.plan.make_plan` for ``scene`` (a :class:`lab.scene.Scene`).
+
+        Returns
+        -------
+        dict
+            ``dof`` and ``aperture`` (str: the effects), ``psf_models`` (tuple of str),
+            ``references`` (tuple of :class:`lab.plan.Step`), ``runtime_passes`` (tuple of str)
+            and ``skipped`` (tuple of Step).
+        """
+
+    @abc.abstractmethod
+    def mitsuba_sensor(self, sensor: dict) -> dict:
+        """This camera's Mitsuba sensor dict, from ``sensor``: a ``perspective`` sensor with the
+        same view (look-at frame, horizontal fov), film and sampler (not modified)."""
+
+
+def parse_camera(table: dict, where: str) -> Camera:
+    """Validate a ``[camera]`` table by its ``model``.
+
+    Parameters
+    ----------
+    table : dict
+        The table as parsed from TOML (or :meth:`lab.scene.Scene.to_dict`).
+    where : str
+        The file and table, e.g. ``"scenes/demo.toml [camera]"``, for error messages.
+
+    Raises
+    ------
+    UserError
+        A missing or unknown model (the message lists the models), unknown keys (it lists the
+        model's keys) or bad values.
+    """
+    if "model" not in table:
+        raise UserError(f"{where}: missing key(s) ['model']")
+    model = table["model"]
+    if not isinstance(model, str):
+        raise UserError(f"{where}: model = {model!r} must be a string")
+    if model not in camera_names():
+        raise UserError(f"{where}: model = {model!r} is not a camera model; use one of {camera_names()}")
+    return get_camera(model).parse(table, where)
+
+
+def header_camera(data, source: str):
+    """The runtime camera of a ``splatlab.camera`` JSON object, checked by its runtime twin
+    (:func:`runtime_cl.camera.from_header`) and by its lab model's :meth:`Camera.check_header`.
+
+    Raises
+    ------
+    UserError
+        Naming ``source``: not an object, an unknown lens (listing the known ones), bad entries.
+    """
+    camera = from_header(data, source)
+    get_camera(camera.lens).check_header(data, source)
+    return camera

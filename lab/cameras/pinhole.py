@@ -1,0 +1,82 @@
+"""The pinhole camera: ``[camera] model = "pinhole"``, everything sharp.
+
+- Scene keys: exactly one of ``fov_deg`` (horizontal) and ``focal_length_mm`` (with the sensor
+  width); the lens keys of a thin lens are an error that says so.
+- Runtime twin: :class:`runtime_cl.camera.pinhole.Pinhole` (CoC 0 everywhere).
+- Header: ``{"lens": "pinhole", "fov_x_deg": ..., "shutter": [0, 1]}``.
+- Plan: no defocus, so no PSF database; the pinhole render is its own reference and the runtime
+  pass is ``identity``.
+- Mitsuba: the ``perspective`` sensor itself.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from runtime_cl.camera.pinhole import Pinhole
+
+from ..errors import UserError
+from ..plan import Step
+from .base import Camera, register_camera
+
+# Keys of a lens aperture (model = "thin"), named in the error a pinhole gives for them.
+LENS_KEYS = ("f_number", "aperture_radius_mm", "focus_distance_m", "aperture")
+
+
+@register_camera("pinhole")
+@dataclass(frozen=True)
+class PinholeCamera(Camera):
+    """A pinhole camera (the look-at keys of :class:`lab.cameras.base.Camera` too).
+
+    Parameters
+    ----------
+    fov_deg : float, optional
+        Horizontal field of view in degrees (0 < fov < 180).
+    focal_length_mm : float, optional
+        The alternative to ``fov_deg``: the fov of this focal length on ``sensor_width_mm``.
+    """
+
+    runtime = Pinhole
+    focal_length_mm: float | None = None
+    fov_deg: float | None = None
+
+    @classmethod
+    def parse(cls, table: dict, where: str) -> "PinholeCamera":
+        lens_keys = [k for k in LENS_KEYS if k in table]
+        if lens_keys:
+            raise UserError(f"{where}: {lens_keys} describe a lens aperture; a pinhole has none: remove "
+                            "them or set model = 'thin'")
+        return super().parse(table, where)
+
+    def check(self) -> None:
+        self.check_positive("focal_length_mm", "sensor_width_mm")
+        if (self.fov_deg is None) == (self.focal_length_mm is None):
+            raise UserError("a pinhole needs exactly one of fov_deg and focal_length_mm "
+                            "(with sensor_width_mm)")
+        if self.fov_deg is not None and not 0.0 < self.fov_deg < 180.0:
+            raise UserError(f"fov_deg = {self.fov_deg} must be between 0 and 180 degrees")
+
+    def runtime_camera(self) -> Pinhole:
+        fov = self.fov_deg
+        if fov is None:
+            fov = math.degrees(2.0 * math.atan(self.sensor_width_mm / (2.0 * self.focal_length_mm)))
+        return Pinhole(fov_deg=fov)
+
+    def camera_json(self) -> dict:
+        return {**self.runtime_camera().to_json(), "shutter": [0.0, 1.0]}
+
+    def plan(self, scene) -> dict:
+        r = scene.render
+        return {
+            "dof": "none",
+            "aperture": "none (pinhole)",
+            "psf_models": (),
+            "references": (Step("pinhole", f"the pinhole render is the reference "
+                                           f"({r.reference_spp} spp, max depth {r.max_depth})"),),
+            "runtime_passes": ("identity",),
+            "skipped": (Step("PSF precompute and sparsify", "a pinhole camera has no defocus: every PSF "
+                                                            "is a delta"),),
+        }
+
+    def mitsuba_sensor(self, sensor: dict) -> dict:
+        return sensor

@@ -1,0 +1,164 @@
+"""The thin lens, optionally with a polygonal iris: ``[camera] model = "thin"``.
+
+- Scene keys: ``focal_length_mm``, exactly one of ``f_number`` and ``aperture_radius_mm``
+  (a = f / 2N), ``focus_distance_m``, and ``aperture = { blades, rotation_deg, rounding }`` for
+  a polygonal iris (:class:`lab.optics.iris.Iris`; its circumradius is the aperture radius).
+- Runtime twin: :class:`runtime_cl.camera.thin_lens.ThinLens` (the iris does not change its CoC).
+- Header: the twin's JSON, the iris as ``"aperture"``, the shutter.
+- Plan: a round aperture runs the spreadlet passes on a ``simple_lens`` database against
+  Mitsuba's ``thinlens``; an iris runs MHU21's exact polygon passes (no PSF database) against the
+  same lens through the iris (:mod:`lab.reference.polygon_lens`).
+"""
+from __future__ import annotations
+
+import math
+import typing
+from dataclasses import dataclass
+
+from runtime_cl.camera.thin_lens import ThinLens
+
+from ..config import from_table
+from ..errors import UserError
+from ..optics.iris import Iris
+from ..plan import Step
+from .base import Camera, register_camera
+
+
+@register_camera("thin")
+@dataclass(frozen=True)
+class ThinCamera(Camera):
+    """A thin-lens camera (the look-at keys of :class:`lab.cameras.base.Camera` too).
+
+    Parameters
+    ----------
+    focal_length_mm : float
+        Focal length f in millimetres.
+    f_number, aperture_radius_mm : float
+        Exactly one of them; the aperture radius is f / (2 N).
+    focus_distance_m : float
+        Distance of the plane in focus along the optical axis (> focal length).
+    aperture : dict, optional
+        A polygonal iris instead of the round aperture, ``{ blades = 6, rotation_deg = 0,
+        rounding = 0 }`` (:class:`lab.optics.iris.Iris`); its circumradius is the aperture radius.
+    """
+
+    runtime = ThinLens
+    focal_length_mm: float | None = None
+    f_number: float | None = None
+    aperture_radius_mm: float | None = None
+    focus_distance_m: float | None = None
+    aperture: typing.Any = None
+
+    @classmethod
+    def parse(cls, table: dict, where: str) -> "ThinCamera":
+        if "fov_deg" in table:
+            fov = table["fov_deg"]
+            fov = float(fov) if type(fov) is int else fov   # shown as from_table would convert it
+            raise UserError(f"{where}: fov_deg = {fov}: a thin lens's field of view follows from "
+                            "focal_length_mm, sensor_width_mm and focus_distance_m; remove fov_deg")
+        return super().parse(table, where)
+
+    def check(self) -> None:
+        self.check_positive("focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm")
+        if self.aperture_radius_mm is not None and not (math.isfinite(self.aperture_radius_mm)
+                                                        and self.aperture_radius_mm > 0):
+            raise UserError(f"aperture_radius_mm = {self.aperture_radius_mm!r}: the aperture radius "
+                            "must be > 0 mm (use model = 'pinhole' for an all-sharp image)")
+        if self.focal_length_mm is None or self.focus_distance_m is None:
+            raise UserError("a thin lens needs focal_length_mm and focus_distance_m")
+        if (self.f_number is None) == (self.aperture_radius_mm is None):
+            raise UserError(f"give exactly one of f_number ({self.f_number}) and aperture_radius_mm "
+                            f"({self.aperture_radius_mm}); remove the other")
+        if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
+            raise UserError(f"focus_distance_m = {self.focus_distance_m} is closer than the focal length "
+                            f"({self.focal_length_mm} mm); use a focus distance > "
+                            f"{self.focal_length_mm / 1000.0} m")
+        self.iris()  # validates the aperture table
+
+    def iris(self) -> Iris | None:
+        """The polygonal iris of ``aperture``, ``None`` for a round aperture."""
+        if self.aperture is not None and not isinstance(self.aperture, dict):
+            raise UserError(f"aperture = {self.aperture!r}: write the iris as a table, e.g. aperture = "
+                            "{ blades = 6, rotation_deg = 0 }, or remove it for a round aperture")
+        return None if self.aperture is None else from_table(Iris, self.aperture, "aperture")
+
+    def runtime_camera(self) -> ThinLens:
+        n = self.f_number
+        if n is None:  # aperture radius a = f / (2 N)
+            n = self.focal_length_mm / (2.0 * self.aperture_radius_mm)
+        return ThinLens(focal_length_mm=self.focal_length_mm, f_number=n,
+                        focus_distance_m=self.focus_distance_m, sensor_width_mm=self.sensor_width_mm)
+
+    def thin_lens(self) -> ThinLens:
+        return self.runtime_camera()
+
+    def camera_json(self) -> dict:
+        data = self.runtime_camera().to_json()
+        if self.aperture is not None:
+            data["aperture"] = self.iris().to_json()
+        data["shutter"] = [0.0, 1.0]
+        return data
+
+    @classmethod
+    def check_header(cls, data: dict, source: str) -> None:
+        """The iris (``"aperture"``), which :meth:`ThinLens.from_json` passes on unchecked."""
+        if "aperture" in data:
+            from_table(Iris, data["aperture"], f"{source} aperture")
+
+    def plan(self, scene) -> dict:
+        if self.iris() is not None:
+            return self._plan_iris(scene)
+        r = scene.render
+        return {
+            "dof": self._dof(),
+            "aperture": "circle",
+            "psf_models": ("simple_lens",),
+            "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens, "
+                                                    f"{r.reference_spp} spp, max depth {r.max_depth}"),),
+            "runtime_passes": ("spreadlets", "splat", "filter"),
+            "skipped": (),
+        }
+
+    def _dof(self) -> str:
+        lens = self.runtime_camera()
+        return (f"thin ({lens.focal_length_mm:g} mm f/{lens.f_number:.3g}, "
+                f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)")
+
+    def _plan_iris(self, scene) -> dict:
+        iris, r = self.iris(), scene.render
+        passes = ("polygon", "polygon_layers") + (("polygon_layered_input",) if scene.input_layers() else ())
+        skipped = [Step("PSF precompute and sparsify", "MHU21's flat polygon kernel is exact: no PSF database"),
+                   Step("spreadlets, splat, filter", "their database traces the round aperture; the iris "
+                                                     "runs through the polygon passes")]
+        if not iris.point_symmetric:
+            skipped.append(Step("180-degree turn of the bokeh in front of the focus plane",
+                                f"the polygon runtime draws the upright iris everywhere ({iris.blades} blades "
+                                "are not point-symmetric)"))
+        if not scene.input_layers():
+            skipped.append(Step("polygon_layered_input", "no [[shapes]] has a layer key, so there is no "
+                                                         "layered input"))
+        return {
+            "dof": self._dof(),
+            "aperture": (f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, "
+                         f"rounding {iris.rounding:g})"),
+            "psf_models": (),
+            "references": (Step("mitsuba_polygon_lens", f"Mitsuba path trace through the thin lens with the "
+                                                        f"{iris.blades}-blade iris (lab.reference.polygon_lens), "
+                                                        f"{r.reference_spp} spp, max depth {r.max_depth}"),),
+            "runtime_passes": passes,
+            "skipped": tuple(skipped),
+        }
+
+    def mitsuba_sensor(self, sensor: dict) -> dict:
+        """Mitsuba's ``thinlens`` (aperture radius f / 2N, planar focus distance), or with an iris
+        the Python sensor of :mod:`lab.reference.polygon_lens`."""
+        lens, iris = self.runtime_camera(), self.iris()
+        out = dict(sensor, type="thinlens", aperture_radius=lens.aperture_radius_m,
+                   focus_distance=lens.focus_distance_m)
+        if iris is not None:
+            from ..reference.polygon_lens import register
+
+            del out["fov_axis"]   # the plugin's fov is horizontal
+            out.update(type=register(), blades=iris.blades, rotation_deg=iris.rotation_deg,
+                       rounding=iris.rounding)
+        return out

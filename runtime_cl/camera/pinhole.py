@@ -1,0 +1,62 @@
+"""A pinhole camera in numpy: the runtime's mirror of the lab's ``model = "pinhole"``.
+
+A pinhole has no aperture, so every point images to a point: the circle of confusion is 0 at
+every depth and a pinhole image needs no defocus pass. The header (``"lens": "pinhole"``) only
+records the horizontal field of view, which places the pixels.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from runtime_cl.camera.common import depth_m, register_lens
+from runtime_cl.errors import InputError
+
+
+def _check_fov(value, where: str) -> None:
+    if not (isinstance(value, (int, float)) and 0 < value < 180):
+        raise InputError(f"{where} = {value!r} must be a number of degrees in (0, 180)")
+
+
+@register_lens("pinhole")
+@dataclass(frozen=True)
+class Pinhole:
+    """A pinhole camera, units as in the ``splatlab.camera`` header (``"lens": "pinhole"``).
+
+    Parameters
+    ----------
+    fov_deg : float
+        Horizontal field of view in degrees, in (0, 180); the header writes it as ``fov_x_deg``.
+    """
+
+    lens: ClassVar[str]
+    fov_deg: float
+
+    def __post_init__(self):
+        _check_fov(self.fov_deg, "camera fov_deg")
+
+    def fov_x_deg(self) -> float:
+        """Horizontal field of view in degrees."""
+        return self.fov_deg
+
+    def coc_radius_px(self, z_m, width_px: int):
+        """Zeros shaped like ``z_m`` (metres; checked as :meth:`ThinLens.coc_radius_px` checks it):
+        a pinhole has no defocus."""
+        return np.zeros_like(depth_m(z_m))
+
+    def to_json(self) -> dict:
+        return {"lens": self.lens, "fov_x_deg": self.fov_deg}
+
+    @classmethod
+    def from_json(cls, data: dict, source: str = "camera") -> "Pinhole":
+        """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
+        if data.get("lens") != cls.lens:
+            raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
+        unknown = sorted(set(data) - {"lens", "fov_x_deg", "shutter"})
+        if unknown:
+            raise InputError(f"{source}: unknown key(s) {unknown} for a pinhole; known: fov_x_deg, shutter")
+        _check_fov(data.get("fov_x_deg"), f"{source}: fov_x_deg")
+        return cls(fov_deg=data["fov_x_deg"])

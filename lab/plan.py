@@ -10,7 +10,7 @@ module (which imports them).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True)
@@ -42,10 +42,15 @@ class Plan:
     inputs : tuple of Step
         Labelled-pixel inputs for the runtime.
     runtime_passes : tuple of str
-        Runtime passes in order, e.g. ``("spreadlets", "splat", "filter")``, ``("polygon",
-        "polygon_layers", "polygon_layered_input")`` or ``("identity",)``.
+        Runtime passes in order by label (the report's method names), e.g. ``("spreadlets",
+        "splat", "filter")``, ``("polygon", "polygon_layers", "polygon_layered_input")`` or
+        ``("identity",)``.
     skipped : tuple of Step
         What is not done, with the reason.
+    pass_runs : dict of str -> (str, dict)
+        Label -> (registered runtime pass, its options), e.g. ``"polygon_layers"`` ->
+        ``("polygon", {"layers": 8})``; a label the camera's rule does not map is the pass of
+        that name without options (:meth:`pass_run`).
     """
 
     scene: str
@@ -57,6 +62,11 @@ class Plan:
     inputs: tuple[Step, ...]
     runtime_passes: tuple[str, ...]
     skipped: tuple[Step, ...]
+    pass_runs: dict = field(default_factory=dict)
+
+    def pass_run(self, label: str) -> tuple:
+        """``(registered runtime pass, options)`` of the runtime pass ``label``."""
+        return self.pass_runs.get(label, (label, {}))
 
     def describe(self) -> str:
         """Human-readable plan, one item per line."""
@@ -107,8 +117,10 @@ def make_plan(scene) -> Plan:
     if layers:
         inputs += (Step("layered_labelled", f"layer0..{len(layers) - 1}.R,G,B,A,Z ({r.input_spp} spp): "
                                             "the [[shapes]] layer keys, untagged shapes and sky last"),)
-        if not any(p.startswith("polygon") for p in rule["runtime_passes"]):
+        runs = rule.get("pass_runs", {})
+        if not any(runs.get(p, (p, {}))[1].get("layered_input") for p in rule["runtime_passes"]):
             skipped.append(Step("layered input in the runtime", "only the polygon passes read layers"))
     return Plan(scene=scene.name, source=scene.source, resolution=scene.info.resolution,
                 effects=effects, psf_models=rule["psf_models"], references=rule["references"],
-                inputs=inputs, runtime_passes=rule["runtime_passes"], skipped=tuple(skipped))
+                inputs=inputs, runtime_passes=rule["runtime_passes"], skipped=tuple(skipped),
+                pass_runs=dict(rule.get("pass_runs", {})))

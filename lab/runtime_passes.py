@@ -1,8 +1,8 @@
 """The plan's runtime passes on a labelled image: frames, apertures, databases and timings.
 
-A plan lists its runtime passes by label (the method names of a report). Each label is a
-registered pass of :mod:`runtime_cl.passes` with options (:data:`PASS_RUNS`; a label that is
-not listed there is the pass of that name without options). A pass that needs a database runs
+A plan lists its runtime passes by label (the method names of a report); each label is a
+registered pass of :mod:`runtime_cl.passes` with options (:meth:`lab.plan.Plan.pass_run`, as
+the camera's plan rule says). A pass that needs a database runs
 once with every database the plan built whose model it renders; a pass that draws the camera's
 aperture gets the camera's iris, rectified here (the runtime ships only its built-in shapes).
 Every pass is timed by the runtime's one contract (:mod:`runtime_cl.timing`).
@@ -17,18 +17,6 @@ from runtime_cl.passes.registry import get_pass, run_pass
 from .errors import UserError
 
 TIMED_RUNS = 3
-DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
-
-# Report label -> (registered pass, options).
-PASS_RUNS = {
-    "polygon_layers": ("polygon", {"layers": DEPTH_LAYERS}),
-    "polygon_layered_input": ("polygon", {"layers": DEPTH_LAYERS, "layered_input": True}),
-}
-
-
-def pass_run(label: str) -> tuple:
-    """``(pass name, options)`` of a plan's runtime pass label."""
-    return PASS_RUNS.get(label, (label, {}))
 
 
 def read_motion(image, path, model: str) -> np.ndarray:
@@ -87,7 +75,7 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
     aperture = None
     out = {}
     for label in tqdm(plan.runtime_passes, desc="runtime", unit="method", disable=not progress):
-        name, options = pass_run(label)
+        name, options = plan.pass_run(label)
         cls = get_pass(name)
         if cls.draws_aperture:
             aperture = aperture or camera_aperture(image)
@@ -109,10 +97,10 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
 
 
 def runtime_camera(image, source: str = "input camera header"):
-    """The runtime twin of the image's camera (None for a pinhole: no lens)."""
-    from runtime_cl.camera.thin_lens import ThinLens
+    """The runtime camera of the image's ``splatlab.camera`` header (:func:`runtime_cl.camera.from_header`)."""
+    from runtime_cl.camera import from_header
 
-    return ThinLens.from_json(image.camera, source) if image.camera.get("lens") == "thin" else None
+    return from_header(image.camera, source)
 
 
 def read_input(path, camera_file=None):
@@ -124,8 +112,4 @@ def read_input(path, camera_file=None):
         from .scene import load_camera
 
         camera = load_camera(camera_file).camera_json()
-    image = read_labelled(path, camera=camera)
-    if image.camera.get("lens") != "thin":
-        raise UserError(f"{path}: camera lens {image.camera.get('lens')!r}; `splatlab render` needs a thin "
-                        "lens camera (pass --camera FILE.toml with a [camera] model = \"thin\" table)")
-    return image
+    return read_labelled(path, camera=camera)

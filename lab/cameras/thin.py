@@ -23,6 +23,8 @@ from ..optics.iris import Iris
 from ..plan import Step
 from .base import Camera, register_camera
 
+DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
+
 
 @register_camera("thin")
 @dataclass(frozen=True)
@@ -146,6 +148,8 @@ class ThinCamera(Camera):
                                                         f"{iris.blades}-blade iris (lab.reference.polygon_lens), "
                                                         f"{r.reference_spp} spp, max depth {r.max_depth}"),),
             "runtime_passes": passes,
+            "pass_runs": {"polygon_layers": ("polygon", {"layers": DEPTH_LAYERS}),
+                          "polygon_layered_input": ("polygon", {"layers": DEPTH_LAYERS, "layered_input": True})},
             "skipped": tuple(skipped),
         }
 

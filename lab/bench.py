@@ -11,10 +11,10 @@ from pathlib import Path
 
 from runtime_cl.atomic_file import atomic_path
 
-from .precompute import ROOT
+from .paths import REPORTS
 from .report.machine import machine_info
 
-BENCH_DIR = ROOT / "reports" / "bench"
+BENCH_DIR = REPORTS / "bench"
 
 
 def _write(name: str, data: dict) -> Path:

@@ -7,8 +7,7 @@ from pathlib import Path
 
 from runtime_cl.errors import InputError
 
-ROOT = Path(__file__).resolve().parents[1]
-DEMO_SCENE = ROOT / "scenes" / "demo.toml"
+from .paths import DEMO_SCENE, ROOT
 
 EPILOG = """\
 typical use:

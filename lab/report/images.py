@@ -32,13 +32,3 @@ def save_heatmap(values: np.ndarray, path, vmax: float | None = None, cmap: str 
     top = vmax if vmax is not None else (float(v.max()) if v.size and v.max() > 0 else 1.0)
     rgba = colormaps[cmap](np.clip(v / top, 0.0, 1.0))
     _atomic_save(Image.fromarray(np.round(rgba[..., :3] * 255).astype(np.uint8)), path)
-
-
-def save_signed(values: np.ndarray, path) -> None:
-    """A signed (H, W) map (e.g. a Laplacian) in a diverging colormap symmetric around 0."""
-    from matplotlib import colormaps
-
-    v = np.asarray(values, dtype=np.float64)
-    top = float(np.abs(v).max()) or 1.0
-    rgba = colormaps["RdBu_r"](0.5 + 0.5 * v / top)
-    _atomic_save(Image.fromarray(np.round(rgba[..., :3] * 255).astype(np.uint8)), path)

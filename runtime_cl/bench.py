@@ -84,7 +84,7 @@ def run(height: int = 1024, width: int = 1024, spreadlets: int | None = 50, r_ma
         Longest same-cell pixel run the splat kernels batch (default 32; 1: pixel by pixel).
     edge : float
         Soft rim of the discs in pixels (default 0: hard discs; see
-        :func:`runtime_cl.psf.synthetic.disc_psf`): more exact spreadlets per PSF.
+        :func:`runtime_cl.psf.disc.disc_psf`): more exact spreadlets per PSF.
 
     Returns
     -------

@@ -1,96 +1,17 @@
-"""Aperture shapes as pluggable samplers, registered by name (Dr.Jit).
-
-An aperture maps two uniform numbers u in [0, 1)^2 to a point distributed uniformly over its
-shape, in units of the shape's circumradius (the circle has radius 1; a polygon with blades will
-have its corners on the unit circle). Lenses scale the point by their aperture (or stop) radius,
-so the same sampler serves the thin lens and, later, the stop surface of a thick lens.
-Coordinates are lens-plane (x right, y up) as seen from the object side, looking along the axis.
-
-Each shape also answers ``contains`` in numpy, the indicator that analytic references and
-statistical tests integrate against.
-
-Shapes: ``circle``; ``polygon`` (blades, rotation, rounded corners; here); ``image``
-(:mod:`lab.optics.aperture_image`), ``star`` and ``heart`` (:mod:`lab.optics.aperture_builtin`):
-transmittance images, registered on import.
-"""
+"""The ``polygon`` aperture: a regular iris of straight blades with optionally rounded corners."""
 from __future__ import annotations
 
-import abc
 import math
 from dataclasses import dataclass
-from typing import ClassVar
 
 import drjit as dr
 import numpy as np
 from drjit.llvm import Array2f
 
-from lab.errors import UserError
+from lab.optics.aperture.base import Aperture, register_aperture
 from lab.optics.iris import check_iris
-from lab.registry import Registry
 
-__all__ = ["Aperture", "CircleAperture", "PolygonAperture", "register_aperture", "get_aperture",
-           "aperture_names", "make_aperture"]
-
-_APERTURES = Registry("aperture")
-register_aperture = _APERTURES.register
-aperture_names = _APERTURES.names
-get_aperture = _APERTURES.get
-
-
-def make_aperture(name: str, **params) -> "Aperture":
-    """Build the aperture ``name`` with its shape parameters (none for ``"circle"``)."""
-    cls = get_aperture(name)
-    try:
-        return cls(**params)
-    except TypeError as exc:
-        raise UserError(f"aperture {name!r}: bad parameters {sorted(params)}: {exc}") from None
-
-
-class Aperture(abc.ABC):
-    """A shape in the lens plane, circumradius 1, sampled uniformly by area."""
-
-    name: ClassVar[str]
-
-    @abc.abstractmethod
-    def sample(self, u: Array2f) -> Array2f:
-        """Map uniform ``u`` in [0, 1)^2 to a uniform point of the shape (unit circumradius)."""
-
-    def sample_rng(self, rng) -> Array2f:
-        """A point drawn with the ray's PCG32 ``rng``: what a tracer calls per ray.
-
-        By default :meth:`sample` of two ``next_float32`` draws; shapes with a faster sampler
-        that needs more random numbers (image apertures: an alias table) override it.
-        """
-        return self.sample(Array2f(rng.next_float32(), rng.next_float32()))
-
-    @property
-    @abc.abstractmethod
-    def area(self) -> float:
-        """Area of the shape at unit circumradius."""
-
-    @abc.abstractmethod
-    def contains(self, x, y) -> np.ndarray:
-        """numpy indicator of the closed shape at points (x, y) (unit circumradius)."""
-
-
-@register_aperture("circle")
-@dataclass(frozen=True)
-class CircleAperture(Aperture):
-    """The unit disc (a fully open iris)."""
-
-    def sample(self, u: Array2f) -> Array2f:
-        # Polar map: r = sqrt(u0) makes the density uniform in area; exact, no rejection.
-        r = dr.sqrt(u.x)
-        s, c = dr.sincos(2.0 * math.pi * u.y)
-        return Array2f(r * c, r * s)
-
-    @property
-    def area(self) -> float:
-        return math.pi
-
-    def contains(self, x, y) -> np.ndarray:
-        x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-        return x * x + y * y <= 1.0
+__all__ = ["PolygonAperture"]
 
 
 @register_aperture("polygon")
@@ -185,8 +106,3 @@ class PolygonAperture(Aperture):
         d_corner = np.hypot(px - apothem, py - h)
         d = np.where(px <= apothem, 0.0, np.where(py <= h, d_edge, d_corner))
         return d <= rho + 1e-12
-
-
-# Image apertures register themselves; imported last because they subclass Aperture.
-from lab.optics import aperture_image as _aperture_image  # noqa: E402,F401  ("image")
-from lab.optics import aperture_builtin as _aperture_builtin  # noqa: E402,F401  ("star", "heart")

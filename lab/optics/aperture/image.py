@@ -1,5 +1,5 @@
 """Apertures given as transmittance images: a user's PNG (``image``); the built-in ``star`` and
-``heart`` (:mod:`lab.optics.aperture_builtin`) are images too.
+``heart`` (:mod:`lab.optics.aperture.builtin`) are images too.
 
 A pixel's transmittance is its luminance times its alpha (white and opaque = open, black or
 transparent = blocked), so rays pass through a pixel in proportion to its value: grey pixels
@@ -13,7 +13,7 @@ dim the bokeh. Two exact samplers of the image's piecewise-constant density:
   table over all pixels: one float64 picks a pixel and, with its leftover fraction, the pixel or
   its alias; two float32 place the point inside. Two gathers per point, several times faster.
 
-Coordinates follow :mod:`lab.optics.aperture`: the image centre is the origin, x right, y up
+Coordinates follow :mod:`lab.optics.aperture.base`: the image centre is the origin, x right, y up
 (image rows run down), scaled so the farthest corner of a non-zero pixel lies on the unit circle
 (circumradius 1). The image is placed upright: a lens traces it as it does any aperture, so in
 the final image the PSF shows it upright behind the focal plane and rotated by 180 degrees in
@@ -31,7 +31,7 @@ import numpy as np
 from drjit.llvm import Array2f, Float, Float64, UInt32
 
 from lab.errors import UserError
-from lab.optics.aperture import Aperture, register_aperture
+from lab.optics.aperture.base import Aperture, register_aperture
 
 __all__ = ["ImageAperture", "FileImageAperture", "MAX_IMAGE_SIDE", "load_transmittance"]
 

@@ -11,7 +11,7 @@ from scipy import stats
 
 from lab.errors import UserError
 from lab.optics.aperture import make_aperture
-from lab.optics.aperture_image import FileImageAperture, load_transmittance
+from lab.optics.aperture.image import FileImageAperture, load_transmittance
 from lab.psf_tracing.tracer import _splitmix64_dr
 
 
@@ -153,7 +153,7 @@ def test_digest_pins_the_file(tmp_path):
 
 def test_builtin_heart_is_the_polygon_kernels_heart():
     """Same outline as lab.sparsify.polygon_shapes (its y runs down): traced and MHU21 bokeh agree."""
-    from lab.optics.aperture_builtin import polygon_mask, heart_raster
+    from lab.optics.aperture.builtin import polygon_mask, heart_raster
     from lab.sparsify.polygon_shapes import shape
 
     v = shape("heart") * np.array([1.0, -1.0])
@@ -163,7 +163,7 @@ def test_builtin_heart_is_the_polygon_kernels_heart():
 
 
 def test_too_large_image(tmp_path, monkeypatch):
-    import lab.optics.aperture_image as mod
+    import lab.optics.aperture.image as mod
 
     monkeypatch.setattr(mod, "MAX_IMAGE_SIDE", 32)
     path = write_png(tmp_path / "big.png", np.full((20, 40), 255, np.uint8))

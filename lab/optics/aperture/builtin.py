@@ -1,7 +1,7 @@
 """Built-in aperture images: ``star`` (a pentagram, tip up) and ``heart`` (point down).
 
 Rasterised once at 512 x 512 with 4 x 4 supersampled coverage (anti-aliased edges), then sampled
-like any :class:`~lab.optics.aperture_image.ImageAperture`. The outlines are those of
+like any :class:`~lab.optics.aperture.image.ImageAperture`. The outlines are those of
 ``lab.sparsify.polygon_shapes`` (MHU21 polygon kernels): the same heart, and the same pentagram
 except that here it is centred on its centre of symmetry (there on its bounding box, 0.095
 circumradii higher), which is where a star-shaped stop sits on the optical axis.
@@ -14,8 +14,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from lab.optics.aperture import register_aperture
-from lab.optics.aperture_image import ImageAperture
+from lab.optics.aperture.base import register_aperture
+from lab.optics.aperture.image import ImageAperture
 
 __all__ = ["StarAperture", "HeartAperture", "BUILTIN_RESOLUTION", "star_raster", "heart_raster",
            "polygon_mask"]

@@ -152,9 +152,9 @@ def test_digest_pins_the_file(tmp_path):
 
 
 def test_builtin_heart_is_the_polygon_kernels_heart():
-    """Same outline as lab.sparsify.polygon_shapes (its y runs down): traced and MHU21 bokeh agree."""
+    """Same outline as runtime_cl.polygon.shapes (its y runs down): traced and MHU21 bokeh agree."""
     from lab.optics.aperture.builtin import polygon_mask, heart_raster
-    from lab.sparsify.polygon_shapes import shape
+    from runtime_cl.polygon.shapes import shape
 
     v = shape("heart") * np.array([1.0, -1.0])
     theirs = polygon_mask(v, 512)

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from lab.errors import UserError
-from lab.sparsify.polygon_table import (METHODS, PAPER_TABLE1, TABLE1_SHAPES, format_table1,
-                                        nonzero_counts, table1, table1_polygon)
+from lab.polygon.table import (METHODS, PAPER_TABLE1, TABLE1_SHAPES, format_table1,
+                               nonzero_counts, table1, table1_polygon)
 from runtime_cl.polygon.kernel import scale_polygon
 
 

@@ -4,14 +4,14 @@
 set D of small-integer edge directions and returns the enclosing polygon of least area with at
 most ``max_edges`` edges, every edge along a direction of D, by the paper's graph construction
 (candidate edges touching input vertices from outside, pairs meeting outside with their pocket
-areas; :mod:`lab.sparsify.polygon_graph`) and DP traversal once around the polygon.
+areas; :mod:`lab.polygon.graph`) and DP traversal once around the polygon.
 
 The traversal is cut where the fewest transitions cross the start of the vertex order; one DP
 per distinct first edge after that cut covers every cycle, instead of one per input vertex.
 Optimality holds within the paper's search space, polygons whose every edge touches an input
 vertex. MHU21 argues the optimum always lies there; for concave outlines it need not: a short
 step edge can be held by its corner resting on an input edge and touch no vertex (a 0.4 % smaller
-example is in tests/lab/sparsify/test_polygon_rectify.py). The result always encloses the input.
+example is in tests/lab/polygon/test_rectify.py). The result always encloses the input.
 
 Coordinates are kept as given (``y`` down for image kernels); :meth:`Rectified.unit` gives the
 polygon in radius units for :func:`runtime_cl.polygon.kernel.scale_polygon`.
@@ -26,7 +26,7 @@ import numpy as np
 import shapely
 
 from lab.errors import UserError
-from lab.sparsify import polygon_graph as graph
+from lab.polygon import graph
 
 __all__ = ["Rectified", "rectify", "direction_set", "normalize_directions"]
 

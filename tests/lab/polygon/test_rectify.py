@@ -7,8 +7,8 @@ import pytest
 import shapely
 
 from lab.errors import UserError
-from lab.sparsify.polygon import direction_set, normalize_directions, rectify
-from lab.sparsify.polygon_shapes import SHAPES, shape
+from lab.polygon.rectify import direction_set, normalize_directions, rectify
+from runtime_cl.polygon.shapes import SHAPES, shape
 
 
 def d_hull_area(v, dirs):

@@ -6,11 +6,11 @@ import pytest
 import shapely
 from scipy.signal import convolve2d
 
+from lab.polygon.rectify import direction_set, rectify
 from runtime_cl.errors import InputError
-from lab.sparsify.polygon import direction_set, rectify
-from lab.sparsify.polygon_shapes import SHAPES, shape
 from runtime_cl.polygon.kernel import (differenced_kernel, directional_prefix_sum,
                                        rasterize_polygon, reconstruct, scale_polygon)
+from runtime_cl.polygon.shapes import SHAPES, shape
 
 T = math.tan(math.pi / 8)
 OCTAGON = np.array([(1, -T), (1, T), (T, 1), (-T, 1), (-1, T), (-1, -T), (-T, -1), (T, -1)])

@@ -4,7 +4,7 @@
 * ``dxdy`` (KTB09): ``K(x, y) - K(x-1, y) - K(x, y-1) + K(x-1, y-1)``.
 * ``directional`` (MHU21): all terms of :func:`runtime_cl.polygon.kernel.differenced_kernel`.
 
-The shapes are rectified with MHU21's D (:func:`lab.sparsify.polygon.direction_set` (2)) and,
+The shapes are rectified with MHU21's D (:func:`lab.polygon.rectify.direction_set` (2)) and,
 as in the paper, "radius" is the half-width: the distance from the centre to the two vertical
 edges. MHU21's hexagon has 8 directional terms, which only a hexagon with 45-degree edges gives:
 the regular hexagon stretched vertically by sqrt(3) (the paper's remark that a regular hexagon
@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from lab.errors import UserError
-from lab.sparsify.polygon import direction_set, rectify
-from lab.sparsify.polygon_shapes import shape
+from lab.polygon.rectify import direction_set, rectify
 from runtime_cl.polygon.kernel import differenced_kernel, rasterize_polygon, scale_polygon
+from runtime_cl.polygon.shapes import shape
 
 __all__ = ["PAPER_TABLE1", "METHODS", "TABLE1_SHAPES", "table1_polygon", "nonzero_counts",
            "table1", "format_table1"]

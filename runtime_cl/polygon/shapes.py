@@ -120,8 +120,8 @@ def unit_polygon(name: str) -> tuple[np.ndarray, np.ndarray]:
     """The rectified unit polygon of the built-in shape ``name``, as the lab shipped it.
 
     ``name``'s outline (:func:`shape`) rectified with MHU21's D (:data:`SHIPPED_DIRECTIONS_M`) and
-    its default edge budget (its corners, at most 16), centred on the outline's centroid, circumradius of the
-    outline 1: what :class:`runtime_cl.polygon.splat.PolygonSplatter` takes.
+    its default edge budget (its corners, at most 16), centred on the outline's centroid, in units
+    of the outline's circumradius: what :class:`runtime_cl.polygon.splat.PolygonSplatter` takes.
 
     Parameters
     ----------

@@ -9,12 +9,11 @@ from runtime_cl.api import methods as runtime_methods
 from runtime_cl.errors import InputError
 
 from .bench import BENCHES
+from .paths import DEMO_SCENE, ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 # Top-level modules of the `lab` extra (pyproject.toml): without them only the runtime commands run.
 LAB_EXTRA = {"scipy", "drjit", "mitsuba", "skimage", "matplotlib", "PIL", "tqdm", "numba", "shapely",
              "dask", "distributed"}
-DEMO_SCENE = ROOT / "scenes" / "demo.toml"
 
 EPILOG = """\
 typical use:

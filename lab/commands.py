@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from .errors import UserError
+from .paths import DEMO_SCENE, REPORTS
 
 
 def _say(msg: str) -> None:
@@ -167,7 +168,7 @@ def _report(scene_path, out_dir, baseline) -> int:
     from .pipeline import run_report
 
     report = run_report(scene_path, out_dir, baseline)
-    out = Path(out_dir) if out_dir else Path("reports") / report["scene"]["name"]
+    out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
         print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
     print(f"report: {out.resolve() / 'index.html'}\n        {out.resolve() / 'report.json'}")
@@ -182,8 +183,6 @@ def cmd_report(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from .cli import DEMO_SCENE
-
     return _report(DEMO_SCENE, None, None)
 
 

@@ -16,8 +16,9 @@ from pathlib import Path
 from .cache_key import code_digest
 from .errors import UserError
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
+from .paths import REPORTS, cache_root
 from .plan import Plan, make_plan
-from .precompute import ROOT, cache_root, precompute
+from .precompute import precompute
 from .scene import Scene, load_scene
 
 # What renders the input and the reference (their imports, lab.optics included, are found, not listed).
@@ -106,7 +107,7 @@ def load_scene_and_plan(path) -> tuple:
 
 
 def default_out_dir(scene: Scene) -> Path:
-    return ROOT / "reports" / scene.name
+    return REPORTS / scene.name
 
 
 def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -> dict:

@@ -1,9 +1,10 @@
 """Rectified apertures for the runtime's polygon pass (``splatlab render --method polygon``,
 reports, ``splatlab bench polygon``).
 
-A built-in aperture shape (:mod:`lab.sparsify.polygon_shapes`) or a camera's iris
-(:class:`lab.optics.iris.Iris`, ``[camera] aperture``) is rectified once per run (MHU21 section 4,
-:func:`lab.sparsify.polygon.rectify`) and handed to the runtime's exact splatter
+A built-in aperture shape (:mod:`runtime_cl.polygon.shapes`) or a camera's iris
+(:class:`lab.optics.iris.Iris`, ``[camera] aperture``) is rectified (MHU21 section 4,
+:func:`lab.polygon.rectify.rectify`; a built-in shape at the default settings was rectified in
+advance and ships with the runtime) and handed to the runtime's exact splatter
 (:class:`runtime_cl.polygon.splat.PolygonSplatter`), which :class:`runtime_cl.passes.polygon.
 PolygonPass` draws at every pixel's thin-lens ``|CoC|``.
 
@@ -24,7 +25,7 @@ __all__ = ["PolygonAperture", "polygon_aperture", "iris_aperture", "default_edge
 
 def default_edges(name: str) -> int:
     """Edge budget N when none is given: the shape's own corners, at most 16 (heart, clover)."""
-    from .sparsify.polygon_shapes import shape
+    from runtime_cl.polygon.shapes import shape
 
     return min(len(shape(name)), 16)
 
@@ -38,12 +39,13 @@ class PolygonAperture:
     name : str
         Built-in shape name.
     directions_m : int
-        D = :func:`lab.sparsify.polygon.direction_set` (m).
+        D = :func:`lab.polygon.rectify.direction_set` (m).
     edges : int
         N, the rectification's edge budget.
     splatter : runtime_cl.polygon.splat.PolygonSplatter
     rectify_s : float
-        Wall time of the rectification (graph construction + traversal), seconds.
+        Wall time of the rectification (graph construction + traversal), or of loading the
+        shipped polygon (:func:`polygon_aperture`), seconds.
     """
 
     name: str
@@ -55,12 +57,16 @@ class PolygonAperture:
 
 def polygon_aperture(name: str = "hexagon", directions_m: int = 2, edges: int | None = None,
                      device=None) -> PolygonAperture:
-    """Rectify the built-in shape ``name`` and build its splatter.
+    """The built-in shape ``name``'s rectified polygon and its splatter.
+
+    With m = 2 and the default N the polygon is the one the runtime ships
+    (:func:`runtime_cl.polygon.shapes.unit_polygon`, rectified by the lab in advance); other m or N
+    rectify the outline here.
 
     Parameters
     ----------
     name : str, default "hexagon"
-        One of :data:`lab.sparsify.polygon_shapes.SHAPES`.
+        One of :data:`runtime_cl.polygon.shapes.SHAPES`.
     directions_m : int, default 2
         Edge directions are all reduced (run, rise) with components up to m (MHU21: m = 2).
     edges : int, optional
@@ -72,12 +78,14 @@ def polygon_aperture(name: str = "hexagon", directions_m: int = 2, edges: int | 
     UserError
         Unknown shape name, bad m or N (the messages list the choices or the smallest N).
     """
-    from .sparsify.polygon_shapes import SHAPES, shape
+    from runtime_cl.polygon.shapes import SHAPES, SHIPPED_DIRECTIONS_M, shape, unit_polygon
 
     if name not in SHAPES:
         raise UserError(f"--aperture {name!r}: unknown shape; choose one of {', '.join(SHAPES)}")
-    return _rectified(name, shape(name), directions_m, default_edges(name) if edges is None else edges,
-                      device)
+    n = default_edges(name) if edges is None else edges
+    if directions_m == SHIPPED_DIRECTIONS_M and n == default_edges(name):
+        return _aperture(name, directions_m, n, lambda: unit_polygon(name), device)
+    return _rectified(name, shape(name), directions_m, n, device)
 
 
 def iris_aperture(iris, directions_m: int = 2, edges: int | None = None, device=None) -> PolygonAperture:
@@ -95,11 +103,17 @@ def iris_aperture(iris, directions_m: int = 2, edges: int | None = None, device=
 
 
 def _rectified(name, outline, directions_m, edges, device) -> PolygonAperture:
+    from .polygon.rectify import direction_set, rectify
+
+    return _aperture(name, directions_m, edges,
+                     lambda: rectify(outline, direction_set(directions_m), edges).unit(), device)
+
+
+def _aperture(name, directions_m, edges, polygon, device) -> PolygonAperture:
+    """The aperture of the unit polygon ``polygon()`` returns, timed as ``rectify_s``."""
     from runtime_cl.polygon.splat import PolygonSplatter
 
-    from .sparsify.polygon import direction_set, rectify
-
     start = time.perf_counter()
-    unit, dirs = rectify(outline, direction_set(directions_m), edges).unit()
+    unit, dirs = polygon()
     took = time.perf_counter() - start
     return PolygonAperture(name, directions_m, edges, PolygonSplatter(unit, dirs, device=device), took)

@@ -5,6 +5,7 @@ then its ``splatlab render`` and ``splatlab db info`` run on a labelled EXR and 
 here, and a lab command fails in one line naming the ``lab`` extra.
 """
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -25,7 +26,12 @@ def test_the_base_install_renders_an_exr(tmp_path):
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
     py, splatlab = venv / "bin" / "python", venv / "bin" / "splatlab"
-    subprocess.run([str(py), "-m", "pip", "install", "--quiet", str(ROOT)], check=True, cwd=tmp_path)
+    source = tmp_path / "src"        # a copy: pip builds in the source tree (build/)
+    for item in ("lab", "runtime_cl", "scenes"):
+        shutil.copytree(ROOT / item, source / item, ignore=shutil.ignore_patterns("__pycache__"))
+    for item in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / item, source / item)
+    subprocess.run([str(py), "-m", "pip", "install", "--quiet", str(source)], check=True, cwd=tmp_path)
     extra = subprocess.run([str(py), "-c", "import drjit"], capture_output=True)
     assert extra.returncode != 0                                   # the lab extra is not installed
 

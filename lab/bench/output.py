@@ -7,12 +7,12 @@ from pathlib import Path
 
 from runtime_cl.atomic_file import atomic_path
 
-from lab.precompute import ROOT
+from lab.paths import REPORTS
 from lab.report.machine import machine_info
 
 __all__ = ["BENCH_DIR", "write_bench"]
 
-BENCH_DIR = ROOT / "reports" / "bench"
+BENCH_DIR = REPORTS / "bench"
 
 
 def write_bench(name: str, data: dict) -> Path:

@@ -211,11 +211,11 @@ def _method_row(sp, base, img, rad, radius_map, repeats, dense_max):
 
 def _uniform_vs_fft(repeats, quick):
     from runtime_cl.polygon.kernel import rasterize_polygon
+    from runtime_cl.polygon.shapes import shape
     from runtime_cl.polygon.splat import PolygonSplatter
 
-    from lab.sparsify.polygon import direction_set, rectify
-    from lab.sparsify.polygon_shapes import shape
-    from lab.sparsify.polygon_table import table1_polygon
+    from lab.polygon.rectify import direction_set, rectify
+    from lab.polygon.table import table1_polygon
 
     sizes = (512, 1024) if quick else (1024, 2048, 4096)
     t1_unit, t1_dirs = table1_polygon("hexagon")

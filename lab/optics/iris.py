@@ -1,6 +1,6 @@
 """A polygonal iris as plain parameters and outline (numpy only, no Dr.Jit).
 
-The iris of :class:`lab.optics.aperture.PolygonAperture` (which samples it in Dr.Jit) as a
+The iris of :class:`lab.optics.aperture.polygon.PolygonAperture` (which samples it in Dr.Jit) as a
 scene camera describes it, ``[camera] aperture = { blades = 6, rotation_deg = 0 }``: the same
 parameters, checks and geometry, so scene files, EXR headers and the polygon runtime can use
 it without loading Dr.Jit. Lens-plane coordinates: x right, y up, circumradius 1 (corner 0 at

@@ -158,10 +158,6 @@ class ThickLensCamera:
         """Working f-number at infinity: chief_scale / entrance-pupil diameter (approximate)."""
         return self.chief_scale_mm / (2.0 * self.pupil_radius_mm)
 
-    def field_tangent(self, eccentricity_px: float) -> float:
-        """Tangent of the field angle the pinhole sees at ``eccentricity_px`` from the centre."""
-        return eccentricity_px / (self.px_per_mm * self.chief_scale_mm)
-
     def min_depth_m(self) -> float:
         """Nearest object distance (m, from the entrance pupil) still in front of the lens."""
         return max(self.pupil_z_mm - self.front_z_mm, 0.0) / 1000.0

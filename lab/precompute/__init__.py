@@ -12,7 +12,7 @@ Modules, one concept each:
 """
 from .cell import build_cell, dense_crop
 from .job import PrecomputeResult, precompute
-from .naming import ROOT, cache_root, content_hash, source_digest
+from .naming import content_hash, source_digest
 
-__all__ = ["ROOT", "cache_root", "content_hash", "source_digest", "precompute", "PrecomputeResult",
+__all__ = ["content_hash", "source_digest", "precompute", "PrecomputeResult",
            "build_cell", "dense_crop"]

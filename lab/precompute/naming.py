@@ -13,24 +13,16 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from pathlib import Path
 
 from lab.cache_key import cached_code_digest, code_digest
 from lab.config import to_table
+from lab.paths import cache_root
 
-__all__ = ["ROOT", "cache_root", "code_roots", "source_digest", "content_hash", "database_path",
-           "shard_dir"]
-
-ROOT = Path(__file__).resolve().parents[2]
+__all__ = ["code_roots", "source_digest", "content_hash", "database_path", "shard_dir"]
 
 # What makes a database, beside its model's own module (their imports are found, not listed).
 PIPELINE = ("lab.precompute.cell", "lab.precompute.consolidate")
-
-
-def cache_root() -> Path:
-    """Where renders, shards and databases are cached: ``$SPLATLAB_CACHE`` or ``<repo>/.cache/``."""
-    return Path(os.environ.get("SPLATLAB_CACHE", ROOT / ".cache"))
 
 
 def code_roots(model_name: str) -> tuple:

@@ -2,7 +2,7 @@
 
 Mitsuba's ``thinlens`` samples a disc. This Python sensor (``mi.register_sensor``; a thin-lens
 camera with an iris chooses it, :meth:`lab.cameras.thin.ThinCamera.mitsuba_sensor`) is the same
-camera with the lens point drawn uniformly from :class:`lab.optics.aperture.PolygonAperture`
+camera with the lens point drawn uniformly from :class:`lab.optics.aperture.polygon.PolygonAperture`
 (the lab's one iris sampler) scaled to the aperture radius, its circumradius: the pinhole ray of
 the position sample fixes the point on the planar focus plane at ``focus_distance`` (camera
 space z), and the ray runs from the lens point through it, as in Mitsuba's ``thinlens.cpp``
@@ -34,7 +34,7 @@ def register() -> str:
     import drjit as dr
     from drjit.llvm import Array2f, Float
 
-    from ..optics.aperture import PolygonAperture
+    from ..optics.aperture.polygon import PolygonAperture
 
     class PolygonThinLens(mi.Sensor):
         def __init__(self, props):

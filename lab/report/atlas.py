@@ -27,7 +27,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from runtime_cl.integrate.poisson import laplacian5, poisson_integrate
 
-from .images import _atomic_save
+from .images import save_png, to_uint8
 
 __all__ = ["AtlasFiles", "select_cells", "render_atlas", "write_atlas", "caption_height"]
 
@@ -92,8 +92,7 @@ def _pool(values: np.ndarray, tile: int) -> np.ndarray:
 
 
 def _tile(rgb: np.ndarray, tile: int) -> Image.Image:
-    img = Image.fromarray(np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8))
-    return img.resize((tile, tile), Image.NEAREST)
+    return Image.fromarray(to_uint8(rgb)).resize((tile, tile), Image.NEAREST)
 
 
 def _log(x: np.ndarray) -> np.ndarray:
@@ -209,6 +208,6 @@ def write_atlas(db, out_dir, columns: int = 8, blocks: int = 4) -> AtlasFiles:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     img, cells = render_atlas(db, columns, blocks)
-    _atomic_save(img, out / "atlas.png")
+    save_png(img, out / "atlas.png")
     md, js = write_table1([table1_row(db)], out, "table")
     return AtlasFiles(out / "atlas.png", md, js, cells)

@@ -11,7 +11,13 @@ from runtime_cl.atomic_file import atomic_path
 from .metrics import tonemap
 
 
-def _atomic_save(img: Image.Image, path: Path) -> None:
+def to_uint8(values: np.ndarray) -> np.ndarray:
+    """Display values in [0, 1] (clipped) as 8-bit image data, rounded to nearest."""
+    return np.round(np.clip(values, 0.0, 1.0) * 255).astype(np.uint8)
+
+
+def save_png(img: Image.Image, path) -> None:
+    """Write ``img`` as a PNG atomically, creating the folder."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
@@ -20,8 +26,7 @@ def _atomic_save(img: Image.Image, path: Path) -> None:
 
 def save_render(linear: np.ndarray, path) -> None:
     """Tonemapped 8-bit PNG of a linear RGB image (H, W, 3)."""
-    rgb = np.round(tonemap(linear) * 255.0).astype(np.uint8)
-    _atomic_save(Image.fromarray(rgb), path)
+    save_png(Image.fromarray(to_uint8(tonemap(linear))), path)
 
 
 def save_heatmap(values: np.ndarray, path, vmax: float | None = None, cmap: str = "magma") -> None:
@@ -31,14 +36,4 @@ def save_heatmap(values: np.ndarray, path, vmax: float | None = None, cmap: str 
     v = np.asarray(values, dtype=np.float64)
     top = vmax if vmax is not None else (float(v.max()) if v.size and v.max() > 0 else 1.0)
     rgba = colormaps[cmap](np.clip(v / top, 0.0, 1.0))
-    _atomic_save(Image.fromarray(np.round(rgba[..., :3] * 255).astype(np.uint8)), path)
-
-
-def save_signed(values: np.ndarray, path) -> None:
-    """A signed (H, W) map (e.g. a Laplacian) in a diverging colormap symmetric around 0."""
-    from matplotlib import colormaps
-
-    v = np.asarray(values, dtype=np.float64)
-    top = float(np.abs(v).max()) or 1.0
-    rgba = colormaps["RdBu_r"](0.5 + 0.5 * v / top)
-    _atomic_save(Image.fromarray(np.round(rgba[..., :3] * 255).astype(np.uint8)), path)
+    save_png(Image.fromarray(to_uint8(rgba[..., :3])), path)

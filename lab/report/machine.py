@@ -7,13 +7,15 @@ import subprocess
 from importlib import metadata
 from pathlib import Path
 
+from lab.paths import ROOT
+
 PACKAGES = ("numpy", "scipy", "drjit", "mitsuba", "pyopencl", "pocl-binary-distribution", "openexr",
             "scikit-image", "numba")
 
 
 def _git_commit() -> str | None:
     try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).resolve().parents[2],
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT,
                              capture_output=True, text=True, timeout=5)
     except (OSError, subprocess.SubprocessError):
         return None

@@ -5,6 +5,11 @@ summing to 1 and zero on a border of at least two pixels (the contract of
 :func:`lab.sparsify.sparsify`). "Pre-filtered" follows LSR18 section 5.4: the average of the
 PSFs over a small box of the PSF parameter, here the radius in ``[r - width/2, r + width/2]``, which
 turns the hard rim into a ramp about ``width`` pixels wide.
+
+Discs and capsules are the points within a radius of a segment (of length 0 for a disc), each
+pixel in or out by its centre: the staircase rims the sparsifier's tests are tuned on. The
+exact-area disc the tracer converges to, and the supersampled one of the runtime's synthetic
+databases, are :func:`runtime_cl.psf.disc.disc_psf`.
 """
 from __future__ import annotations
 
@@ -50,8 +55,20 @@ def _average_of_shapes(dist: np.ndarray, radii: np.ndarray) -> np.ndarray:
     return out / len(radii)
 
 
+def _prefiltered_capsule(resolution: int, radius: float, length: float, width: float,
+                         name: str) -> np.ndarray:
+    if not (math.isfinite(length) and length >= 0):
+        raise UserError(f"{name}: length = {length!r} must be a finite number >= 0")
+    y, x = _grid(resolution, radius + width / 2 + length / 2, name)
+    xs = np.clip(x, -length / 2, length / 2)
+    dist = np.hypot(x - xs, y)
+    f = _average_of_shapes(dist, _radii(radius, width, name))
+    return f[..., None].astype(np.float32)
+
+
 def prefiltered_disc(resolution: int, radius: float, width: float = 3.0) -> np.ndarray:
-    """Disc PSF of ``radius`` px pre-filtered over a radius box ``width`` px wide, (R, R, 1).
+    """Disc PSF of ``radius`` px pre-filtered over a radius box ``width`` px wide, (R, R, 1):
+    the capsule of length 0 (:func:`prefiltered_capsule`).
 
     Parameters
     ----------
@@ -62,9 +79,7 @@ def prefiltered_disc(resolution: int, radius: float, width: float = 3.0) -> np.n
     width : float, default 3.0
         Width of the radius box in pixels (0 = a hard disc).
     """
-    y, x = _grid(resolution, radius + width / 2, "prefiltered_disc")
-    f = _average_of_shapes(np.hypot(x, y), _radii(radius, width, "prefiltered_disc"))
-    return f[..., None].astype(np.float32)
+    return _prefiltered_capsule(resolution, radius, 0.0, width, "prefiltered_disc")
 
 
 def prefiltered_capsule(resolution: int, radius: float, length: float,
@@ -82,13 +97,7 @@ def prefiltered_capsule(resolution: int, radius: float, length: float,
     width : float, default 3.0
         Width of the radius box in pixels.
     """
-    if not (math.isfinite(length) and length >= 0):
-        raise UserError(f"prefiltered_capsule: length = {length!r} must be a finite number >= 0")
-    y, x = _grid(resolution, radius + width / 2 + length / 2, "prefiltered_capsule")
-    xs = np.clip(x, -length / 2, length / 2)
-    dist = np.hypot(x - xs, y)
-    f = _average_of_shapes(dist, _radii(radius, width, "prefiltered_capsule"))
-    return f[..., None].astype(np.float32)
+    return _prefiltered_capsule(resolution, radius, length, width, "prefiltered_capsule")
 
 
 def gaussian(resolution: int, sigma: float, cutoff: float = 4.0) -> np.ndarray:

@@ -97,7 +97,7 @@ class PolygonSplatter:
     ----------
     vertices : array_like, shape (n, 2)
         Unit polygon in pixels per unit radius (``y`` down), e.g. ``Rectified.unit()[0]`` from
-        ``lab.sparsify.polygon.rectify``: circumradius 1, centred on the origin.
+        ``lab.polygon.rectify.rectify``: circumradius 1, centred on the origin.
     directions : array_like of int, shape (n, 2)
         Edge ``k`` runs from vertex ``k`` to ``k + 1`` along ``+directions[k]`` (small integers).
     device : runtime_cl.device.opencl.Device, optional

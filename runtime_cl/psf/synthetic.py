@@ -1,42 +1,20 @@
 """A synthetic ``simple_lens`` database of analytic discs, for benchmarks and self-tests.
 
-Each cell's dense PSF is a disc of the cell's CoC radius (pixel coverage estimated on a
-``supersample``^2 sub-grid, normalised to sum 1; radius 0 is a delta). Its spreadlets are the
-exact 5-point Laplacian of that crop (every non-zero pixel), so integrating them gives the dense
-PSF back exactly; ``max_spreadlets`` keeps only the largest-magnitude ones instead (not exact:
-for throughput measurements at a chosen spreadlet count). Needs no light tracing, no lab.
+Each cell's dense PSF is a disc of the cell's CoC radius (:func:`runtime_cl.psf.disc.disc_psf`,
+supersampled pixels; radius 0 is a delta). Its spreadlets are the exact 5-point Laplacian of that
+crop (every non-zero pixel), so integrating them gives the dense PSF back exactly;
+``max_spreadlets`` keeps only the largest-magnitude ones instead (not exact: for throughput
+measurements at a chosen spreadlet count). Needs no light tracing, no lab.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from runtime_cl.psf.database import DatabaseBuilder, SpreadletDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.integrate.poisson import laplacian5
+from runtime_cl.psf.database import DatabaseBuilder, SpreadletDatabase
+from runtime_cl.psf.disc import disc_psf
 from runtime_cl.psf.grid import NestedGrid
-
-
-def disc_psf(radius: float, supersample: int = 4, edge: float = 0.0) -> np.ndarray:
-    """Disc of ``radius`` pixels on a (2R+1)^2 crop, summing to 1 (1x1 if radius <= 0.5).
-
-    ``edge`` = 0: a hard disc, R = ceil(radius). ``edge`` > 0: the disc's rim falls off
-    linearly from 1 to 0 over ``edge`` pixels centred on ``radius`` (a soft rim, like a lens's
-    residual blur), R = ceil(radius + edge / 2); its Laplacian is non-zero over the whole ramp,
-    so the exact spreadlets number more (r = 80: 1352 hard, 1884 with edge 1, 2420 with edge 2).
-    Pixel coverage is averaged over a ``supersample``^2 sub-grid.
-    """
-    if radius <= 0.5:  # inside one pixel: a delta
-        return np.ones((1, 1))
-    if not (np.isfinite(edge) and edge >= 0):
-        raise InputError(f"edge = {edge!r}: must be a finite width in pixels >= 0")
-    big = int(np.ceil(radius + edge / 2))
-    sub = (np.arange(supersample) + 0.5) / supersample - 0.5
-    c = np.arange(-big, big + 1)
-    y = (c[:, None] + sub[None, :]).reshape(-1)
-    rho = np.sqrt(y[:, None] ** 2 + y[None, :] ** 2)
-    inside = np.clip((radius - rho) / edge + 0.5, 0.0, 1.0) if edge > 0 else (rho <= radius).astype(float)
-    cover = inside.reshape(2 * big + 1, supersample, 2 * big + 1, supersample).mean(axis=(1, 3))
-    return cover / cover.sum()
 
 
 def disc_database(r_max: float, samples: int = 32, beta: float = 2.0, max_spreadlets: int | None = None,
@@ -56,7 +34,8 @@ def disc_database(r_max: float, samples: int = 32, beta: float = 2.0, max_spread
     fast_track_below : float
         Fast-track the cells whose CoC radius is below this (default 0: none).
     edge : float
-        Width of the discs' soft rim in pixels (default 0: hard discs); see :func:`disc_psf`.
+        Width of the discs' soft rim in pixels (default 0: hard discs); see
+        :func:`runtime_cl.psf.disc.disc_psf`.
     """
     if not (np.isfinite(r_max) and r_max > 0):
         raise InputError(f"r_max = {r_max!r}: must be a finite number of pixels > 0")

@@ -1,4 +1,4 @@
-"""Render an image from labelled pixels with a spreadlet database: LSR18's method and baselines.
+"""Render labelled pixels into an image with a spreadlet database: LSR18's method and baselines.
 
 ``spreadlets`` (LSR18 section 6): each pixel splats its cell's spreadlets times its colour into
 a padded Laplacian canvas (fast-tracked cells splat their dense PSF into a second canvas); the

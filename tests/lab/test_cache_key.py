@@ -4,14 +4,12 @@ from pathlib import Path
 
 import pytest
 
-import lab
 import runtime_cl
 from lab.cache_key import code_digest, module_files
+from lab.paths import ROOT, SCENES
 from lab.pipeline import RENDER_ROOTS, render_key
 from lab.precompute.naming import code_roots
 from lab.scene import load_scene
-
-ROOT = Path(lab.__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -65,16 +63,24 @@ def test_editing_polygon_code_keeps_the_spreadlet_database_key(tree):
     packages = tree("polygon")
     roots = code_roots("simple_lens")
     before = code_digest(roots, packages)
-    for f in sorted((packages["runtime_cl"] / "polygon").glob("*.py")):
+    # the outlines (runtime_cl/polygon/shapes.py) are also the traced heart and star apertures'
+    shapes = packages["runtime_cl"] / "polygon" / "shapes.py"
+    edited = [f for f in sorted((packages["runtime_cl"] / "polygon").glob("*.py")) if f != shapes]
+    edited += sorted((packages["lab"] / "polygon").glob("*.py")) + [packages["lab"] / "polygon_aperture.py"]
+    assert len(edited) > 10
+    for f in edited:
         _edit(f)
     assert code_digest(roots, packages) == before
+    _edit(shapes)
+    changed = code_digest(roots, packages)
+    assert changed != before
     _edit(packages["runtime_cl"] / "psf" / "database.py")
-    assert code_digest(roots, packages) != before
+    assert code_digest(roots, packages) != changed
 
 
 def test_editing_the_iris_changes_the_polygon_reference_key(tree):
     packages = tree("iris")
-    scene = load_scene(ROOT / "scenes" / "occlusion.toml")
+    scene = load_scene(SCENES / "occlusion.toml")
     before = render_key(scene, packages)
     assert "lab.optics.iris" in module_files(RENDER_ROOTS, packages)
     _edit(packages["lab"] / "optics" / "iris.py")

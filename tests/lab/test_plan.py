@@ -1,10 +1,7 @@
 """The plan: which effects, PSF models, references and runtime passes a scene calls for."""
-from pathlib import Path
-
+from lab.paths import SCENES
 from lab.plan import make_plan
 from lab.scene import load_scene, parse_scene
-
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 
 def scene(camera, psf=None):

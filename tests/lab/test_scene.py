@@ -1,16 +1,15 @@
 """Scene files: parsing, validation messages, transforms, camera JSON, canonical dicts."""
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from lab.errors import UserError
+from lab.paths import SCENES
 from lab.scene import load_camera, load_scene, parse_scene
 from runtime_cl.camera.thin_lens import ThinLens
 
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 BASE = """
 [scene]

@@ -1,30 +1,17 @@
 """Unit polygons and plain numpy references for the polygon-splatting tests.
 
-The shapes are ``lab.sparsify.polygon.rectify(shape(name), direction_set(2), n).unit()`` written
-out (``t1hex``: ``lab.sparsify.polygon_table.table1_polygon("hexagon")``, MHU21's 45-degree
-hexagon; ``heart12``: the 40-point heart rectified to 12 edges), so these tests need only the
-runtime. The star is symmetric: mirror-image polygons tie in ``scale_polygon``'s cost.
+The built-in shapes are the ones the runtime ships (:func:`runtime_cl.polygon.shapes.unit_polygon`);
+two more are written out, ``lab.polygon.rectify.rectify(...).unit()`` results, so these tests need
+only the runtime: ``t1hex`` (``lab.polygon.table.table1_polygon("hexagon")``, MHU21's 45-degree
+hexagon) and ``heart12`` (the 40-point heart rectified to 12 edges). The star is symmetric:
+mirror-image polygons tie in ``scale_polygon``'s cost.
 """
 import numpy as np
 
 from runtime_cl.polygon.kernel import rasterize_polygon
+from runtime_cl.polygon.shapes import unit_polygon
 
-SHAPES = {
-    "hexagon": ([[0.8660254037844387, -0.5669872981077806], [0.8660254037844387, 0.5669872981077806],
-                 [4.6988171910082003e-17, 1.0], [-0.8660254037844385, 0.5669872981077808],
-                 [-0.8660254037844385, -0.5669872981077809], [-1.9794118791938863e-16, -1.0]],
-                [[0, 1], [-2, 1], [-2, -1], [0, -1], [2, -1], [2, 1]]),
-    "octagon": ([[0.9238795325112867, -0.38268343236508995], [0.9238795325112867, 0.3826834323650898],
-                 [0.38268343236508984, 0.9238795325112867], [-0.38268343236508967, 0.9238795325112867],
-                 [-0.9238795325112867, 0.3826834323650896], [-0.9238795325112868, -0.38268343236508967],
-                 [-0.38268343236508995, -0.9238795325112865], [0.38268343236509006, -0.9238795325112866]],
-                [[0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1], [1, 0], [1, 1]]),
-    "star": ([[-0.587785252292473, -0.054254269627733394], [-0.587785252292473, -0.8090169943749473],
-              [0.0, -0.5151243682287108], [0.587785252292473, -0.8090169943749473],
-              [0.587785252292473, -0.05425426962773306], [0.9510565162951534, 0.30901699437494734],
-              [0.3454915028125263, 0.30901699437494734], [-7.398176389483337e-18, 0.9999999999999999],
-              [-0.34549150281252633, 0.30901699437494723], [-0.9510565162951536, 0.30901699437494723]],
-             [[0, -1], [2, 1], [2, -1], [0, 1], [1, 1], [-1, 0], [-1, 2], [-1, -2], [-1, 0], [1, -1]]),
+WRITTEN = {
     "t1hex": ([[1.0, -0.9999999999999998], [1.0, 0.9999999999999997], [1.1102230246251565e-16, 1.9999999999999996],
                [-0.9999999999999998, 0.9999999999999997], [-0.9999999999999998, -1.0],
                [0.0, -1.9999999999999996]],
@@ -38,11 +25,15 @@ SHAPES = {
                 [[-1, 2], [-1, -2], [-1, -1], [0, -1], [1, -1], [1, 0], [1, 1], [1, -1], [1, 0], [1, 1],
                  [0, 1], [-1, 1]]),
 }
+BUILT_IN = ("hexagon", "octagon", "star")   # shipped with the runtime
+SHAPES = (*BUILT_IN, *WRITTEN)
 
 
 def shape(name):
     """``(unit vertices float64 (n, 2), directions int64 (n, 2))``."""
-    v, d = SHAPES[name]
+    if name in BUILT_IN:
+        return unit_polygon(name)
+    v, d = WRITTEN[name]
     return np.asarray(v, np.float64), np.asarray(d, np.int64)
 
 

@@ -7,7 +7,8 @@ from runtime_cl.errors import InputError
 from runtime_cl.integrate.poisson import laplacian5
 from runtime_cl.coords.maps import psf_coords, thin_lens_coords
 from runtime_cl.spreadlets.renderer import Renderer
-from runtime_cl.psf.synthetic import disc_database, disc_psf
+from runtime_cl.psf.disc import disc_psf
+from runtime_cl.psf.synthetic import disc_database
 from runtime_cl.camera.thin_lens import ThinLens
 
 

@@ -23,7 +23,8 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.models.base import PSFModel, register_model
-from lab.psf_tracing.models.common import ApertureKeys, check_common, check_number
+from lab.psf_tracing.models.common import (ApertureKeys, LensKeys, check_common, check_number,
+                                           whole_launches)
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import RayHits
 
@@ -40,7 +41,7 @@ def min_psf_resolution(max_coc_px: float) -> int:
 
 
 @dataclass(frozen=True)
-class SimpleLensConfig(ApertureKeys):
+class SimpleLensConfig(LensKeys, ApertureKeys):
     """Settings of the SimpleLens model (a scene's ``[psf.simple_lens]`` table).
 
     Parameters
@@ -65,14 +66,11 @@ class SimpleLensConfig(ApertureKeys):
         Relative spreadlet density for the sparsifier (> 0; 1 = its default).
     seed : int, default 0
         Random seed (>= 0); same seed, same PSFs bitwise.
-    aperture : str, default "circle"
-        Aperture shape (see :func:`lab.optics.aperture.aperture_names`); its parameters are the
-        other ``aperture_*`` keys of :class:`~lab.psf_tracing.models.common.ApertureKeys`.
-    lens_focal_length_mm, lens_f_number, lens_focus_distance_m, lens_sensor_width_mm : float
-        The canonical thin lens (defaults 50 mm, f/2, 2 m, 36 mm). The PSFs do not depend on it
-        beyond rounding; it only makes the traced path physical.
-    lens_width_px : int, default 1920
-        Image width in pixels across the canonical sensor (sets the pixel size).
+
+    The ``aperture*`` keys (:class:`~lab.psf_tracing.models.common.ApertureKeys`) choose the
+    aperture shape, e.g. ``aperture = "polygon"``, ``aperture_blades = 6``; the ``lens_*`` keys
+    (:class:`~lab.psf_tracing.models.common.LensKeys`) the canonical thin lens, which the PSFs do
+    not depend on beyond rounding.
     """
 
     max_coc_px: float
@@ -84,17 +82,11 @@ class SimpleLensConfig(ApertureKeys):
     rays_per_launch: int = 2 ** 22
     density: float = 1.0
     seed: int = 0
-    lens_focal_length_mm: float = 50.0
-    lens_f_number: float = 2.0
-    lens_focus_distance_m: float = 2.0
-    lens_sensor_width_mm: float = 36.0
-    lens_width_px: int = 1920
 
     def __post_init__(self):
         check_common(self)
         for name in ("max_coc_px", "beta"):
             check_number(name, getattr(self, name))
-        check_number("lens_width_px", self.lens_width_px, integer=True)
         need = min_psf_resolution(self.max_coc_px)
         if self.psf_resolution < need:
             raise UserError(
@@ -102,17 +94,7 @@ class SimpleLensConfig(ApertureKeys):
                 f"{self.max_coc_px} plus a {PSF_MARGIN_PX}-pixel margin around the centre pixel; "
                 f"use psf_resolution >= {need} (or a smaller max_coc_px)")
         self.check_aperture()
-        try:
-            self.lens
-        except UserError as exc:
-            raise UserError(f"canonical lens (lens_* keys): {exc}") from None
-
-    @property
-    def lens(self) -> ThinLens:
-        """The canonical thin lens."""
-        return ThinLens(focal_length_mm=self.lens_focal_length_mm, f_number=self.lens_f_number,
-                        focus_distance_m=self.lens_focus_distance_m,
-                        sensor_width_mm=self.lens_sensor_width_mm)
+        self.check_lens()
 
 
 @register_model("simple_lens")
@@ -142,7 +124,7 @@ class SimpleLens(PSFModel):
         c = self.config
         area = math.pi * (self.boxes[cell].hi[0] + 0.5) ** 2
         n = max(c.rays_per_psf, math.ceil(c.rays_per_pixel * area))
-        return -(-n // c.rays_per_launch) * c.rays_per_launch
+        return whole_launches(n, c.rays_per_launch)
 
     def rays(self, coords: list, rng) -> RayHits:
         """Per ray: |CoC| r (pixels) -> near-side depth -> aperture point -> sensor, image pixels."""

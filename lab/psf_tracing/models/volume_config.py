@@ -1,7 +1,6 @@
 """Settings of the Volume model (a scene's ``[psf.volume]`` table), validated before any tracing."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from lab.errors import UserError
@@ -107,8 +106,3 @@ class VolumeConfig:
     def focal_length_px(self) -> float:
         """The pinhole's focal length in pixels."""
         return self.focal_length_mm * self.width_px / self.sensor_width_mm
-
-    @property
-    def field_of_view_deg(self) -> float:
-        """Full angle the PSF image spans, degrees."""
-        return 2.0 * math.degrees(math.atan(0.5 * self.psf_resolution / self.focal_length_px))

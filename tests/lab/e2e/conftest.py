@@ -3,8 +3,9 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[3]
-TINY = ROOT / "scenes" / "tiny.toml"
+from lab.paths import SCENES
+
+TINY = SCENES / "tiny.toml"
 
 
 @pytest.fixture(scope="session")

@@ -1,14 +1,13 @@
 """The `splatlab` command line: render contract and bad input (exit 2, one line, nothing left behind)."""
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from lab.cli import build_parser, main
 from lab.exr_io import LabelledImage, read_labelled, read_rgb, write_labelled
+from lab.paths import SCENES
 from runtime_cl.psf.database import SpreadletDatabase
 
-TINY = Path(__file__).resolve().parents[3] / "scenes" / "tiny.toml"
+TINY = SCENES / "tiny.toml"
 
 
 def run(argv, capsys):

@@ -1,11 +1,12 @@
 """The occlusion scene end to end (slow): Mitsuba polygon-iris reference, flat and layered input,
 the three polygon passes, SSIM and PNGs in the report; at 96 px wide instead of 256."""
 import json
-from pathlib import Path
 
 import pytest
 
-SCENE = Path(__file__).resolve().parents[3] / "scenes" / "occlusion.toml"
+from lab.paths import SCENES
+
+SCENE = SCENES / "occlusion.toml"
 
 
 @pytest.mark.slow

@@ -1,12 +1,12 @@
 """Scene file -> Dr.Jit PSFs -> spreadlets -> OpenCL runtime -> report, at 64x64."""
 import json
-from pathlib import Path
 
 import numpy as np
 
 from lab.exr_io import read_rgb
+from lab.paths import SCENES
 
-TINY = Path(__file__).resolve().parents[3] / "scenes" / "tiny.toml"
+TINY = SCENES / "tiny.toml"
 
 
 def test_report_files_and_fields(tiny_report):

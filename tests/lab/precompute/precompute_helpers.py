@@ -1,12 +1,9 @@
 """Helpers for the precompute tests: small SimpleLens jobs (a few PSFs, few rays, tiny images)."""
 import copy
-from pathlib import Path
 
 import numpy as np
 
 from runtime_cl.psf.database import ARRAYS, SpreadletDatabase
-
-ROOT = Path(__file__).resolve().parents[3]
 
 # 10 cells, 17^2 PSFs, 2^15 rays each: the whole job takes well under a second once compiled.
 SMALL = {"max_coc_px": 6.0, "samples": 10, "psf_resolution": 17, "rays_per_psf": 2 ** 15,

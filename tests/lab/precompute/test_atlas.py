@@ -11,7 +11,7 @@ from lab.report.table1 import table1_markdown, table1_row
 from runtime_cl.psf.database import DatabaseBuilder
 from runtime_cl.integrate.poisson import laplacian5
 from runtime_cl.psf.grid import NestedGrid
-from runtime_cl.psf.synthetic import disc_psf
+from runtime_cl.psf.disc import disc_psf
 
 
 def test_atlas_and_table_of_a_traced_database(reference, tmp_path):

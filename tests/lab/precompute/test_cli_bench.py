@@ -6,6 +6,7 @@ import pytest
 
 from lab.cli import main
 from lab.errors import UserError
+from lab.paths import SCENES
 from runtime_cl.psf.database import SpreadletDatabase
 
 from precompute_helpers import SMALL, assert_same_database, cli_sets
@@ -84,9 +85,7 @@ def test_precompute_scene_with_workers_matches_serial(cache, tmp_path, capsys):
     """A scene target: its plan's models, configured from its labelled-pixel input, on 2 workers."""
     import shutil
 
-    from precompute_helpers import ROOT
-
-    tiny = str(ROOT / "scenes" / "tiny.toml")
+    tiny = str(SCENES / "tiny.toml")
     assert main(["precompute", tiny, "--quiet", "--workers", "2"]) == 0
     (line,) = [s for s in capsys.readouterr().out.splitlines() if s.startswith("simple_lens:")]
     assert "PSFs on processes" in line

@@ -7,12 +7,13 @@ import time
 
 import pytest
 
+from lab.paths import ROOT
 from lab.precompute import build_cell, content_hash, precompute
 from lab.precompute.naming import database_path, shard_dir
 from lab.precompute.shards import read_shard, shard_path, write_shard
 from runtime_cl.psf.database import SpreadletDatabase
 
-from precompute_helpers import ROOT, assert_same_database, small_model, cli_sets
+from precompute_helpers import assert_same_database, small_model, cli_sets
 
 # 21 cells; the 6 largest PSFs each take ~0.2 s to sparsify (they run first), the rest ~5 ms.
 SLOW = {"max_coc_px": 24.0, "samples": 21, "psf_resolution": 53, "rays_per_psf": 2 ** 16,

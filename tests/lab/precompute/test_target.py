@@ -5,9 +5,10 @@ import pytest
 
 from lab.cli import main
 from lab.errors import UserError
+from lab.paths import SCENES
 from lab.precompute.target import load_target_model, parse_sets, resolve_target
 
-from precompute_helpers import ROOT, SMALL, small_sets
+from precompute_helpers import SMALL, small_sets
 
 
 def test_set_values_are_toml_literals_or_bare_strings():
@@ -29,7 +30,7 @@ def test_bad_set_items(items, needle):
 
 def test_targets():
     assert resolve_target("simple_lens").kind == "model"
-    scene = resolve_target(str(ROOT / "scenes" / "tiny.toml"))
+    scene = resolve_target(str(SCENES / "tiny.toml"))
     assert scene.kind == "scene" and scene.path.name == "tiny.toml"
     assert resolve_target("missing.toml").kind == "scene"  # the scene loader names the missing file
     with pytest.raises(UserError, match=r"'simple_lense'.*not a registered PSF model.*simple_lens"):
@@ -56,8 +57,8 @@ def test_model_settings_are_validated():
     (["simple_lens", "--set", "max_coc_px=6", "--workers", "0"], ["--workers 0"]),
     (["simple_lens", "--set", "max_coc_px=6", "--scheduler", "localhost:8786"], ["tcp://"]),
     (["simple_lens", "--set", "max_coc_px=6", "--threads", "0"], ["--threads 0"]),
-    ([str(ROOT / "scenes" / "tiny.toml"), "--set", "seed=1"], ["--set", "[psf.<model>]"]),
-    ([str(ROOT / "scenes" / "no-such-scene.toml")], ["no-such-scene.toml"]),
+    ([str(SCENES / "tiny.toml"), "--set", "seed=1"], ["--set", "[psf.<model>]"]),
+    ([str(SCENES / "no-such-scene.toml")], ["no-such-scene.toml"]),
 ])
 def test_bad_input_exits_2_before_tracing(argv, needles, cache, capsys):
     code = main(["precompute", *argv, "--quiet"])

@@ -8,10 +8,11 @@ from scipy import stats
 
 from lab.config import from_table
 from lab.errors import UserError
-from lab.psf_tracing.analytic import disc_area_in_rect, prefiltered_disc_psf
+from lab.psf_tracing.analytic import prefiltered_disc_psf
 from lab.psf_tracing.models import get_model, load_model
 from lab.psf_tracing.models.combined import Combined, CombinedConfig, min_combined_resolution
 from lab.psf_tracing.tracer import RayHits, trace_psf
+from runtime_cl.psf.disc import disc_area_in_rect
 
 R = 61
 BASE = {"max_coc_px": 12.0, "max_motion_px": 32.0, "psf_resolution": R, "rays_per_psf": 2 ** 18,

@@ -1,19 +1,17 @@
 """Mitsuba scene dicts, seeded render passes, the labelled input and the CoC range helper."""
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from lab.exr_io import read_labelled, write_labelled
+from lab.paths import SCENES
 from lab.reference.coc import CocRange, coc_range, depth_range
 from lab.reference.labelled import planar_depth, render_labelled
 from lab.reference.mitsuba_scene import scene_dict
 from lab.reference.render import pass_seeds, render_pinhole, render_reference, split_spp
 from lab.scene import load_scene
-
-SCENES = Path(__file__).resolve().parents[3] / "scenes"
 
 
 @pytest.fixture(scope="module")

@@ -108,7 +108,7 @@ def _render_aperture(args, image):
 
 
 def _check_render_options(args, cls) -> None:
-    from runtime_cl.passes.registry import get_pass, pass_names
+    from runtime_cl.passes import get_pass, pass_names
 
     if args.layers is not None and args.layers < 1:
         raise UserError(f"--layers {args.layers}: the number of depth layers must be >= 1 (1 splats "
@@ -129,7 +129,7 @@ def _check_render_options(args, cls) -> None:
 
 
 def cmd_render(args) -> int:
-    from runtime_cl.passes.registry import get_pass, run_pass
+    from runtime_cl.passes import get_pass, run_pass
     from runtime_cl.psf.database import SpreadletDatabase
 
     from .exr_io import write_rgb

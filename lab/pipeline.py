@@ -22,7 +22,7 @@ from .precompute import precompute
 from .scene import Scene, load_scene
 
 # What renders the input and the reference (their imports, lab.optics included, are found, not listed).
-RENDER_ROOTS = ("lab.reference.render", "lab.reference.labelled")
+RENDER_ROOTS = ("lab.reference.references", "lab.reference.labelled")
 
 
 def render_key(scene: Scene, packages=None) -> str:
@@ -39,7 +39,7 @@ def render_key(scene: Scene, packages=None) -> str:
 def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tuple:
     """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info)."""
     from .reference.labelled import render_labelled
-    from .reference.render import render_reference
+    from .reference.references import render_reference_step
 
     folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"
     folder.mkdir(parents=True, exist_ok=True)
@@ -56,13 +56,9 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
     if ref_path.exists():
         reference = read_rgb(ref_path)
         info["reference_s"] = "cached"
-    elif plan.references[0].name == "pinhole":
-        reference = image.rgb
-        write_rgb(ref_path, reference)
-        info["reference_s"] = 0.0
     else:
         t = time.perf_counter()
-        reference = render_reference(scene, progress=progress)
+        reference = render_reference_step(plan.references[0].name, scene, image, progress)
         write_rgb(ref_path, reference)
         info["reference_s"] = round(time.perf_counter() - t, 2)
     info.update(reference_spp=scene.render.reference_spp, input_spp=scene.render.input_spp,

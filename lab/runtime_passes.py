@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.frame import Frame
-from runtime_cl.passes.registry import get_pass, run_pass
+from runtime_cl.passes import get_pass, run_pass
 
 from .errors import UserError
 
@@ -89,7 +89,7 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
             key = label if len(candidates) == 1 else f"{label}:{db.model}"
             frame = frame_of(image, db=db, layered_input=options.get("layered_input", False))
             rendered, timing = run_pass(name, frame, camera, db, runs=runs, **options)
-            entry = timing.to_json()
+            entry = dict(timing.to_json(), **{"pass": name})
             if cls.draws_aperture and aperture is not None:
                 entry["aperture"] = aperture_info(aperture)
             out[key] = (rendered, entry)

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from runtime_cl.frame import Frame
-from runtime_cl.passes.registry import get_pass, pass_names, run_pass
+from runtime_cl.passes import get_pass, pass_names, run_pass
 from runtime_cl.psf.database import SpreadletDatabase
 
 __all__ = ["load_database", "methods", "render"]

@@ -57,7 +57,7 @@ def bench_scene(db, height: int, width: int, channels: int, spreadlets: int, lay
 
 
 def run(height: int = 1024, width: int = 1024, spreadlets: int | None = 50, r_max: float = 32.0,
-        channels: int = 3, methods=METHODS, layout: str = "ramp", repeats: int = 3, seed: int = 0,
+        channels: int = 3, methods=tuple(METHODS), layout: str = "ramp", repeats: int = 3, seed: int = 0,
         device: Device | None = None, samples: int = 32, run_max: int = RUN_MAX, edge: float = 0.0) -> dict:
     """Render the benchmark scene with each method and report times and rates.
 
@@ -160,13 +160,13 @@ def rotation(height: int = 1024, width: int = 1024, r_max: float = 100.0, sample
                  "run_max_1": Renderer(db, device, run_max=1)}
     configs = []
     for method in methods:
+        spreadlets = METHODS[method].splats_spreadlets     # turned two ways, runs matter
         configs.append((method, "unrotated", "bilinear", None))
-        if method == "spreadlets":
+        if spreadlets:
             configs.append((method, "unrotated_run_max_1", "run_max_1", None))
         for field in angles:
-            for how in (("bilinear", "nearest") if method == "spreadlets" else ("bilinear",)):
-                name = f"{field}_{how}" if method == "spreadlets" else field
-                configs.append((method, name, how, field))
+            for how in (("bilinear", "nearest") if spreadlets else ("bilinear",)):
+                configs.append((method, f"{field}_{how}" if spreadlets else field, how, field))
     best: dict = {}
     for rep in range(repeats + 1):  # the first round warms up (kernel builds)
         for method, name, how, field in configs:

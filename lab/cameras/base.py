@@ -26,7 +26,7 @@ from runtime_cl.camera import from_header
 
 from ..config import from_table
 from ..errors import UserError
-from ..registry import Registry
+from runtime_cl.registry import Registry
 
 __all__ = ["Camera", "Vec3", "camera_names", "get_camera", "header_camera", "parse_camera",
            "register_camera"]

@@ -31,6 +31,15 @@ def _database_summary(result) -> dict:
     return info
 
 
+def timing_reference(methods: dict):
+    """The method whose pass other times are compared against (``timing_reference``), or None."""
+    from runtime_cl.passes import get_pass, pass_names
+
+    known = set(pass_names())
+    return next((name for name, m in methods.items()
+                 if m.get("pass") in known and get_pass(m["pass"]).timing_reference), None)
+
+
 def assemble_report(scene, plan, image, reference, ref_info, databases, results, out_dir,
                     baseline=None) -> dict:
     """Write the images of one run into ``out_dir`` and return the report.json dictionary."""
@@ -49,9 +58,11 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
     if len(methods) > 1:
         accuracy_vs_time(methods, out_dir / "accuracy_vs_time.png")
         plots["SSIM vs time"] = "accuracy_vs_time.png"
-    if "splat" in methods:
-        for name, m in methods.items():
-            m["speedup_vs_splat"] = methods["splat"]["time_ms"] / m["time_ms"] if m["time_ms"] else None
+    reference_method = timing_reference(methods)
+    if reference_method is not None:
+        ref_ms = methods[reference_method]["time_ms"]
+        for m in methods.values():
+            m["speedup_vs_timing_reference"] = ref_ms / m["time_ms"] if m["time_ms"] else None
     report = {
         "schema": 1,
         "scene": {"name": scene.name, "path": scene.source, "resolution": list(scene.info.resolution),
@@ -66,6 +77,7 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
         "images": {"reference": "reference.png", "input (pinhole)": "input.png"},
         "plots": plots,
         "methods": methods,
+        "timing_reference": reference_method,
         "database": {name: _database_summary(r) for name, r in databases.items()},
         "reference": ref_info,
         "settings": {"render": scene.to_dict()["render"], "psf": scene.psf},

@@ -25,20 +25,23 @@ def compare(baseline: dict, new: dict, ssim_drop: float = 0.01, slowdown: float 
 
     A method regresses when its SSIM falls by more than ``ssim_drop`` or its time grows by more than
     the factor ``slowdown``. Times on a shared machine are noisy, so the default factor is loose;
-    the time is compared as a ratio to the Splat baseline measured in the same run when both
-    reports have it, which cancels most of the machine's load.
+    the time is compared as a ratio to the report's timing reference (the pass that declares
+    ``timing_reference``, LSR18's Splat) measured in the same run when both reports have the same
+    one, which cancels most of the machine's load.
     """
     out = []
     base_m, new_m = baseline["methods"], new["methods"]
+    shared = baseline.get("timing_reference")
+    shared = shared if shared is not None and shared == new.get("timing_reference") else None
     for name in sorted(set(base_m) & set(new_m)):
         b, n = base_m[name], new_m[name]
         if n["ssim"] < b["ssim"] - ssim_drop:
             out.append(f"{name}: SSIM {b['ssim']:.4f} -> {n['ssim']:.4f} (dropped more than {ssim_drop})")
-        ref = "splat" if "splat" in base_m and "splat" in new_m and name != "splat" else None
+        ref = shared if shared in base_m and shared in new_m and name != shared else None
         bt = b["time_ms"] / base_m[ref]["time_ms"] if ref else b["time_ms"]
         nt = n["time_ms"] / new_m[ref]["time_ms"] if ref else n["time_ms"]
         if nt > bt * slowdown:
-            unit = "x Splat" if ref else "ms"
+            unit = f"x {ref}" if ref else "ms"
             out.append(f"{name}: time {bt:.4g} -> {nt:.4g} {unit} (slower by more than {slowdown}x)")
     for name in sorted(set(base_m) - set(new_m)):
         out.append(f"{name}: present in the baseline, missing now")

@@ -12,26 +12,21 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.errors import InputError
+from runtime_cl.registry import Registry
 
 __all__ = ["depth_m", "from_header", "lens_names", "register_lens"]
 
-_LENSES: dict[str, type] = {}
+_LENSES = Registry("camera lens", attribute="lens")
 
 
 def register_lens(name: str):
     """Class decorator: register a runtime camera under the header's ``"lens"`` value ``name``."""
-    def decorate(cls):
-        if name in _LENSES:
-            raise ValueError(f"camera lens {name!r} is registered twice ({_LENSES[name]} and {cls})")
-        cls.lens = name
-        _LENSES[name] = cls
-        return cls
-    return decorate
+    return _LENSES.register(name)
 
 
 def lens_names() -> list[str]:
     """The registered header ``"lens"`` values, sorted."""
-    return sorted(_LENSES)
+    return _LENSES.names()
 
 
 def from_header(data, source: str = "camera"):
@@ -60,10 +55,9 @@ def from_header(data, source: str = "camera"):
     if not isinstance(data, dict):
         raise InputError(f"{source}: the camera must be a JSON object, got {data!r}")
     lens = data.get("lens")
-    cls = _LENSES.get(lens) if isinstance(lens, str) else None
-    if cls is None:
+    if lens not in _LENSES:
         raise InputError(f"{source}: lens = {lens!r} is not known; use one of {lens_names()}")
-    return cls.from_json(data, source)
+    return _LENSES.get(lens).from_json(data, source)
 
 
 def depth_m(z_m) -> np.ndarray:

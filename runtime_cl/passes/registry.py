@@ -1,6 +1,7 @@
 """The runtime pass registry: every way the runtime renders labelled pixels, by name.
 
-A pass is one module that registers a :class:`RuntimePass` subclass (``@register_pass``). The
+A pass is one module that registers a :class:`RuntimePass` subclass (``@register_pass``); import
+the registry's functions from :mod:`runtime_cl.passes`, whose import registers every pass. The
 class declares what it needs: a database (of which models) or none, the input channels, and
 whether it renders depth layers. The pipeline, ``splatlab render --method``, the benchmarks and
 the reports iterate this registry; none of them switches on a method name.
@@ -17,11 +18,12 @@ import time
 from typing import ClassVar
 
 from runtime_cl.errors import InputError
+from runtime_cl.registry import Registry
 from runtime_cl.timing import measure
 
 __all__ = ["RuntimePass", "register_pass", "get_pass", "pass_names", "run_pass"]
 
-_PASSES: dict[str, type] = {}
+_PASSES = Registry("runtime pass", sort=False)   # registration order is report order
 
 
 class RuntimePass(abc.ABC):
@@ -43,6 +45,9 @@ class RuntimePass(abc.ABC):
     draws_aperture : bool
         Whether it draws the camera's aperture shape itself (option ``aperture``: the lab hands
         it the camera's rectified iris), rather than the PSFs of a database.
+    timing_reference : bool
+        Whether reports compare the other passes' times against it, measured in the same run
+        (LSR18's dense Splat: the machine's load cancels in the ratio).
 
     Parameters
     ----------
@@ -63,6 +68,7 @@ class RuntimePass(abc.ABC):
     channels: ClassVar[tuple]
     layered: ClassVar[bool]
     draws_aperture: ClassVar[bool] = False
+    timing_reference: ClassVar[bool] = False
 
     def __init__(self, camera, db=None, *, layers: int = 1, device=None, **options):
         if isinstance(layers, bool) or not isinstance(layers, int) or layers < 1:
@@ -99,28 +105,19 @@ class RuntimePass(abc.ABC):
 
 def register_pass(name: str):
     """Class decorator: register a :class:`RuntimePass` under ``name``."""
-    def decorate(cls):
-        if name in _PASSES:
-            raise ValueError(f"runtime pass {name!r} is registered twice ({_PASSES[name]} and {cls})")
-        cls.name = name
-        _PASSES[name] = cls
-        return cls
-    return decorate
+    return _PASSES.register(name)
 
 
 def pass_names() -> list[str]:
     """Registered pass names, in registration order (the order reports list them)."""
-    import runtime_cl.passes  # noqa: F401  (importing the package registers every pass)
-
-    return list(_PASSES)
+    return _PASSES.names()
 
 
 def get_pass(name: str) -> type:
     """The :class:`RuntimePass` class registered as ``name``."""
-    names = pass_names()
     if name not in _PASSES:
-        raise InputError(f"method = {name!r}: unknown runtime pass; choose one of {names}")
-    return _PASSES[name]
+        raise InputError(f"method = {name!r}: unknown runtime pass; choose one of {pass_names()}")
+    return _PASSES.get(name)
 
 
 def run_pass(name: str, frame, camera, db=None, *, runs: int = 0, layers: int = 1, device=None,

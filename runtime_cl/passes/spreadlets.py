@@ -61,6 +61,7 @@ class SpreadletsPass(SpreadletPass):
 class SplatPass(SpreadletPass):
     summary = "dense PSF splatting (LSR18's Splat baseline)"
     method = "splat"
+    timing_reference = True
 
 
 @register_pass("filter")

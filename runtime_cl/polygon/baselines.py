@@ -24,22 +24,48 @@ from runtime_cl.polygon.splat import PolygonSplatter, fixed_point_exponents
 
 __all__ = ["BaselineSplatter", "METHODS"]
 
-METHODS = ("dense", "laplacian", "dxdy")
 CB = 8
+
+
+class _Dense:
+    """Brute force: every pixel of the rasterised polygon, summed by columns at the end."""
+
+    fft_canvas = False
+    row_prefix = False
+
+    @staticmethod
+    def kernel(k, x0, y0):
+        return k, x0, y0
+
+
+class _DxDy(_Dense):
+    """KTB09: the polygon's dx dy difference, integrated by rows then columns."""
+
+    row_prefix = True
+
+    @staticmethod
+    def kernel(k, x0, y0):
+        p = np.pad(k, ((1, 1), (1, 1)))
+        return p[1:, 1:] - p[1:, :-1] - p[:-1, 1:] + p[:-1, :-1], x0, y0
+
+
+class _Laplacian:
+    """LSR18 spreadlets of the polygon: its 5-point Laplacian, integrated by the FFT solve."""
+
+    fft_canvas = True
+
+    @staticmethod
+    def kernel(k, x0, y0):
+        return laplacian5(np.pad(k, 1).astype(np.int64)), x0 - 1, y0 - 1
+
+
+# The baselines by name: how each turns a polygon into sparse terms and the canvas back into colours.
+METHODS = {"dense": _Dense, "laplacian": _Laplacian, "dxdy": _DxDy}
 
 
 def _terms(polygon, method: str) -> np.ndarray:
     """(dx, dy, value) rows of one entry's sparse kernel."""
-    k, x0, y0 = rasterize_polygon(polygon)
-    if method == "dense":
-        f, ox, oy = k, x0, y0
-    elif method == "dxdy":
-        p = np.pad(k, ((1, 1), (1, 1)))
-        f = p[1:, 1:] - p[1:, :-1] - p[:-1, 1:] + p[:-1, :-1]
-        ox, oy = x0, y0
-    else:
-        f = laplacian5(np.pad(k, 1).astype(np.int64))
-        ox, oy = x0 - 1, y0 - 1
+    f, ox, oy = METHODS[method].kernel(*rasterize_polygon(polygon))
     ys, xs = np.nonzero(f)
     return np.stack([xs + ox, ys + oy, f[ys, xs]], 1).astype(np.int32)
 
@@ -56,8 +82,8 @@ class BaselineSplatter:
 
     def __init__(self, splatter: PolygonSplatter, method: str):
         if method not in METHODS:
-            raise InputError(f"method: {method!r} is not one of {METHODS}")
-        self.sp, self.method = splatter, method
+            raise InputError(f"method: {method!r} is not one of {list(METHODS)}")
+        self.sp, self.method, self.kind = splatter, method, METHODS[method]
         self._entries = -1
         self._kernels = {}
 
@@ -95,7 +121,7 @@ class BaselineSplatter:
         self._table(int(table.entry(r.max())))
         pad = self.extent + 2
         ch, cw = h + 2 * pad, w + 2 * pad
-        if self.method == "laplacian":
+        if self.kind.fft_canvas:
             ch, cw = fft_friendly(ch), fft_friendly(cw)
         canvas = sp.alloc(ch * cw * c * 8, "padded canvas")
         cl.enqueue_fill_buffer(queue, canvas, np.uint64(0), 0, ch * cw * c * 8)
@@ -116,14 +142,14 @@ class BaselineSplatter:
                 events.append(k(queue, (nx * ny,), (1,), *args, np.int32(cx), np.int32(cy), np.int32(nx)))
         info = {"splat_ms": event_ms(*events), "terms_per_pixel": float(self.nnz[table.entry(r)].mean()),
                 "exponent": e}
-        if self.method == "laplacian":
+        if self.kind.fft_canvas:
             host = np.empty((ch, cw, c), np.int64)
             cl.enqueue_copy(queue, host, canvas)
             t = time.perf_counter()
             out = poisson_integrate(host.astype(np.float64) * np.ldexp(1.0, -e))[pad:pad + h, pad:pad + w]
             info["integrate_ms"] = (time.perf_counter() - t) * 1e3
         else:
-            dxdy = self.method == "dxdy"
+            dxdy = self.kind.row_prefix
             ev = []
             if dxdy:
                 ev.append(self._kernel(c, "row_prefix")(queue, (ch,), (1,), canvas, np.int32(cw)))

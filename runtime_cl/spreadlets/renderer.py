@@ -165,42 +165,50 @@ class _Spreadlets:
     """LSR18: spreadlets into a Laplacian canvas (fast-tracked cells dense into a second one),
     integrated exactly, the dense canvas added."""
 
-    @staticmethod
-    def wrapper(r: Renderer, channels: int, rotate: bool):
-        return TileSplatter(r.ddb, channels, dense_all=False, run_max=r.run_max, rotate=rotate,
+    splats_spreadlets = True   # spreadlet_rotation and run_max matter
+    dense_all = False
+
+    @classmethod
+    def wrapper(cls, r: Renderer, channels: int, rotate: bool):
+        return TileSplatter(r.ddb, channels, dense_all=cls.dense_all, run_max=r.run_max, rotate=rotate,
                             spreadlet_rotation=r.spreadlet_rotation)
 
-    @staticmethod
-    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
+    @classmethod
+    def run(cls, r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
         out = wrapper.run(colour_buf, coords_buf, h, w, r.tile, angle_buf)
-        p, t0 = out.pad, time.perf_counter()
+        t0 = time.perf_counter()
+        image = cls.image(out, h, w)
+        return image, dict(splat_ms=out.splat_ms, merge_ms=out.merge_ms, kernel_ms=out.splat_ms + out.merge_ms,
+                           download_ms=out.download_ms, integrate_ms=(time.perf_counter() - t0) * 1e3,
+                           spreadlets=out.spreadlets, dense_pixels=out.dense_pixels, tiles=out.tiles)
+
+    @staticmethod
+    def image(out, h: int, w: int) -> np.ndarray:
+        p, lap = out.pad, out.canvas[0]
         # an all-zero Laplacian integrates to zero; skip the FFT when nothing was splat
-        lap = out.canvas[0]
         image = (poisson_integrate(lap)[p:p + h, p:p + w] if out.spreadlets
                  else np.zeros((h, w, lap.shape[-1]), np.float32))
         if out.canvas.shape[0] > 1:
             image += out.canvas[1, p:p + h, p:p + w]
-        return image, _splat_times(out, (time.perf_counter() - t0) * 1e3)
+        return image
 
 
-class _Splat:
+class _Splat(_Spreadlets):
     """LSR18's Splat baseline: every pixel splats its dense PSF."""
 
-    @staticmethod
-    def wrapper(r: Renderer, channels: int, rotate: bool):
-        return TileSplatter(r.ddb, channels, dense_all=True, run_max=r.run_max, rotate=rotate,
-                            spreadlet_rotation=r.spreadlet_rotation)
+    splats_spreadlets = False
+    dense_all = True
 
     @staticmethod
-    def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
-        out = wrapper.run(colour_buf, coords_buf, h, w, r.tile, angle_buf)
-        p, t0 = out.pad, time.perf_counter()
-        image = out.canvas[0, p:p + h, p:p + w].copy()
-        return image, _splat_times(out, (time.perf_counter() - t0) * 1e3)
+    def image(out, h: int, w: int) -> np.ndarray:
+        p = out.pad
+        return out.canvas[0, p:p + h, p:p + w].copy()
 
 
 class _Filter:
     """LSR18's Filter baseline: every output pixel gathers with its own PSF."""
+
+    splats_spreadlets = False
 
     @staticmethod
     def wrapper(r: Renderer, channels: int, rotate: bool):
@@ -211,12 +219,6 @@ class _Filter:
         image, kernel_ms, download_ms, psf_px = wrapper.run(colour_buf, coords_buf, h, w, angle_buf)
         return image, dict(filter_ms=kernel_ms, kernel_ms=kernel_ms, download_ms=download_ms,
                            integrate_ms=0.0, spreadlets=0, dense_pixels=psf_px, tiles=0)
-
-
-def _splat_times(out, integrate_ms: float) -> dict:
-    return dict(splat_ms=out.splat_ms, merge_ms=out.merge_ms, kernel_ms=out.splat_ms + out.merge_ms,
-                download_ms=out.download_ms, integrate_ms=integrate_ms, spreadlets=out.spreadlets,
-                dense_pixels=out.dense_pixels, tiles=out.tiles)
 
 
 # The methods a Renderer runs, by name: LSR18's method and its two baselines.

@@ -63,7 +63,7 @@ def test_every_plan_rule_gives_the_plan_fields(table):
 
     scene = parse_scene({"scene": {"name": "c", "resolution": [8, 8]}, "camera": table,
                          "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "c.toml")
-    from runtime_cl.passes.registry import get_pass
+    from runtime_cl.passes import get_pass
 
     rule = scene.camera.plan(scene)
     assert PLAN_KEYS <= set(rule) <= PLAN_KEYS | {"pass_runs"}

@@ -21,7 +21,7 @@ import numpy as np
 from drjit.llvm import Array2f
 
 from lab.errors import UserError
-from lab.registry import Registry
+from runtime_cl.registry import Registry
 
 __all__ = ["Aperture", "register_aperture", "get_aperture", "aperture_names", "make_aperture"]
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from lab.config import from_table
 from lab.errors import UserError
-from lab.registry import Registry
+from runtime_cl.registry import Registry
 from lab.psf_tracing.space import Box, NestedGrid, boxes
 from lab.psf_tracing.tracer import RayHits, TraceResult, trace_psf
 

@@ -10,7 +10,7 @@ from runtime_cl.camera.thin_lens import ThinLens
 from runtime_cl.coords.maps import psf_coords
 from runtime_cl.errors import InputError
 from runtime_cl.layers.composite import PixelLayer, render_layers
-from runtime_cl.passes.registry import RuntimePass, get_pass, pass_names
+from runtime_cl.passes import RuntimePass, get_pass, pass_names
 from runtime_cl.polygon.layers import PolygonLayerSplatter
 from runtime_cl.polygon.splat import PolygonSplatter
 from runtime_cl.psf.synthetic import disc_database

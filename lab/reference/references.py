@@ -1,0 +1,37 @@
+"""The references a plan can ask for, by the name of its step: how each is rendered.
+
+A camera's plan rule names its reference (``plan.references[0]``); this table says what renders
+it. A new reference (motion sub-frames, a thick-lens sensor, volpath) is a function here, or in a
+module of its own imported here, and its entry in :data:`REFERENCES`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import UserError
+
+__all__ = ["REFERENCES", "render_reference_step"]
+
+
+def _mitsuba(scene, image, progress: bool) -> np.ndarray:
+    """A Mitsuba path trace through the scene camera's own sensor (thin lens, iris)."""
+    from .render import render_reference
+
+    return render_reference(scene, progress=progress)
+
+
+def _the_input(scene, image, progress: bool) -> np.ndarray:
+    """A pinhole camera: its labelled-pixel input is the ground truth (every PSF is a delta)."""
+    return image.rgb
+
+
+# Step name -> renderer(scene, labelled input, progress) -> (H, W, 3) radiance.
+REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "pinhole": _the_input}
+
+
+def render_reference_step(name: str, scene, image, progress: bool = True) -> np.ndarray:
+    """Render the reference step ``name`` of a plan for ``scene`` (``image``: its labelled input)."""
+    if name not in REFERENCES:
+        raise UserError(f"reference {name!r}: no renderer is registered for it; known references are "
+                        f"{sorted(REFERENCES)}")
+    return REFERENCES[name](scene, image, progress)

@@ -24,7 +24,8 @@ def cmd_plan(args) -> int:
 
 def _scene_models(scene_path) -> list:
     """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC range)."""
-    from .pipeline import inputs_and_reference, load_scene_and_plan, model_table
+    from .pipeline import inputs_and_reference, load_scene_and_plan
+    from .psf_settings import model_table
     from .psf_tracing.models import load_model
 
     scene, plan = load_scene_and_plan(scene_path)
@@ -146,12 +147,13 @@ def cmd_render(args) -> int:
     if cls.draws_aperture:
         aperture = _render_aperture(args, image)
         options["aperture"] = aperture.splatter
-        a = aperture_info(aperture)
-        said = (f" ({aperture.name}, {aperture.edges} edges, D m={aperture.directions_m}; "
-                f"+{a['table_s']:.2f} s radius table, {a['rectify_s']:.2f} s rectification)")
     frame = frame_of(image, str(args.input), db, options.get("layered_input", False))
     rendered, timing = run_pass(args.method, frame, runtime_camera(image, f"{args.input} camera"), db, **options)
     write_rgb(args.out, rendered[..., :3])
+    if cls.draws_aperture:
+        a = aperture_info(aperture)
+        said = (f" ({aperture.name}, {aperture.edges} edges, D m={aperture.directions_m}; "
+                f"+{a['table_s']:.2f} s radius table, {a['rectify_s']:.2f} s rectification)")
     c = timing.counts
     if "max_radius_px" in c:
         said += f", radius <= {c['max_radius_px']:.1f} px"
@@ -159,8 +161,8 @@ def cmd_render(args) -> int:
         said += (f", {c['used_layers']} of {c['depth_layers']} depth layers used "
                  f"({'layered' if options['layered_input'] else 'flat'} input)")
     print(f"{args.out}: {args.method}{said}: {timing.time_ms:.1f} ms ({timing.device_ms:.1f} ms device, "
-          f"{timing.transfer_ms:.1f} ms transfers, {timing.host_ms:.1f} ms host; +{timing.compile_ms:.0f} ms "
-          "set-up and kernel builds)")
+          f"{timing.transfer_ms:.1f} ms transfers, {timing.host_ms:.1f} ms host; one call, kernel builds "
+          "included)")
     return 0
 
 

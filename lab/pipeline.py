@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import time
 from datetime import datetime, timezone
 from pathlib import Path
 
 from .cache_key import code_digest
-from .errors import UserError
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
 from .paths import REPORTS, cache_root
 from .plan import Plan, make_plan
@@ -66,28 +64,10 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
     return image, reference, info
 
 
-def model_table(scene: Scene, model_name: str, image: LabelledImage) -> dict:
-    """The scene's ``[psf.<model>]`` table with what the scene decides filled in.
-
-    For ``simple_lens``: ``max_coc_px`` defaults to the largest |CoC| of the input, rounded up to
-    a multiple of 8 px (so small scene edits reuse the database), and ``psf_resolution`` to the
-    smallest that holds it.
-    """
-    table = dict(scene.psf.get(model_name, {}))
-    if model_name == "simple_lens":
-        from .psf_tracing.models.simple_lens import min_psf_resolution
-        from .reference.coc import coc_range
-
-        if "max_coc_px" not in table:
-            needed = coc_range(image, scene.camera.thin_lens()).max_abs_px
-            table["max_coc_px"] = float(max(8, 8 * math.ceil(needed / 8.0)))
-        table.setdefault("psf_resolution", min_psf_resolution(table["max_coc_px"]))
-    return table
-
-
 def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool = False,
                     progress: bool = True) -> dict:
     """Precompute (or reuse) every PSF model the plan lists; name -> PrecomputeResult."""
+    from .psf_settings import model_table
     from .psf_tracing.models import load_model
 
     results = {}

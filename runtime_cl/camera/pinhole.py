@@ -6,7 +6,6 @@ records the horizontal field of view, which places the pixels.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 

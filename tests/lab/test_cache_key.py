@@ -4,7 +4,6 @@ from pathlib import Path
 
 import pytest
 
-import runtime_cl
 from lab.cache_key import code_digest, module_files
 from lab.paths import ROOT, SCENES
 from lab.pipeline import RENDER_ROOTS, render_key

@@ -63,8 +63,16 @@ def build_cell(model, cell: int) -> dict:
     sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced))
     t2 = time.perf_counter()
     stats = {k: float(v) for k, v in sp.stats.items()}
-    return {"cell": np.array(cell, np.int64), "points": sp.points, "values": sp.values,
-            "fast_track": np.array(sp.fast_track), "dense": dense_crop(psf),
+    values, dense = sp.values, dense_crop(psf)
+    energy = model.energy(traced)
+    if energy is not None:
+        # sparsified normalised (its thresholds are tuned so), then scaled: the Laplacian and its
+        # integration are linear, so the spreadlets draw exactly psf * energy
+        e = np.asarray(energy, np.float32)
+        values, dense = (values * e).astype(np.float32), (dense * e).astype(np.float32)
+        stats["energy"] = float(np.mean(energy))
+    return {"cell": np.array(cell, np.int64), "points": sp.points, "values": values,
+            "fast_track": np.array(sp.fast_track), "dense": dense,
             "stats": np.array(json.dumps(stats, sort_keys=True)), "rays": np.array(traced.n_rays, np.int64),
             "trace_s": np.array(t1 - t0), "sparsify_s": np.array(t2 - t1)}
 

@@ -118,9 +118,24 @@ class PSFModel(abc.ABC):
                             f"{cell} landed outside the {self.resolution}^2 PSF image; raise psf_resolution")
         return result
 
-    def trace(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> np.ndarray:
-        """The pre-filtered PSF of ``cell``: (R, R, C) float32, each channel summing to 1.
+    def energy(self, traced: TraceResult) -> np.ndarray | None:
+        """Per channel, the light of a traced PSF that reaches the image, relative to the point as
+        it would be seen without losses; None (the default) for models whose PSFs are normalised
+        (lenses: every ray through the optics lands, vignetting as the reference renormalises).
 
-        Centre at pixel (R//2, R//2), rows = y downward (see :meth:`trace_checked`).
+        A model whose losses are part of the effect (a medium's absorption and out-scattering)
+        returns them here; the database then stores ``psf * energy`` (:func:`lab.precompute.cell.
+        build_cell`), so a render darkens as its reference does.
         """
-        return self.trace_checked(cell, n_rays, seed).psf
+        return None
+
+    def trace(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> np.ndarray:
+        """The pre-filtered PSF of ``cell`` as the runtime draws it: (R, R, C) float32, each channel
+        summing to its :meth:`energy` (1 for a normalised model).
+
+        Centre at pixel (R//2, R//2), rows = y downward (see :meth:`trace_checked`, whose PSF is
+        always normalised per channel).
+        """
+        traced = self.trace_checked(cell, n_rays, seed)
+        energy = self.energy(traced)
+        return traced.psf if energy is None else (traced.psf * np.asarray(energy, np.float32)).astype(np.float32)

@@ -25,10 +25,14 @@ absorbed or lost before crossing are blocked. Photons are dropped once farther t
 free paths from the light, or after ``max_collisions`` collisions (a truncation whose effect the
 tests bound).
 
-The PSF is normalised per channel inside the image (the tracer's contract). The energy that
-reaches the image relative to the unscattered point, per channel, is
-``counts[..., c].sum() / rays in channel c`` (:meth:`Volume.window_energy`); colour shifts of the
-halo come from the albedo. Symmetry ``rotation``: the PSF is rotation invariant.
+The traced PSF is normalised per channel inside the image (the tracer's contract). The energy
+that reaches the image relative to the point without the medium, per channel, is
+``counts[..., c].sum() / rays in channel c`` (:meth:`Volume.window_energy`): transmittance,
+absorption and out-scattering beyond the image lost, in-scattering gained. It is the model's
+:meth:`~lab.psf_tracing.models.base.PSFModel.energy`, so the database stores each PSF with it and
+a render through the medium darkens as a volpath reference does (Beer-Lambert for an absorbing
+medium); colour shifts of the halo come from the albedo. Symmetry ``rotation``: the PSF is
+rotation invariant.
 """
 from __future__ import annotations
 
@@ -129,6 +133,10 @@ class Volume(PSFModel):
         """:meth:`trace_cell`: light scattered beyond the image's field is expected (the halo is
         cut at the PSF's edge), so rays landing outside are not an error here."""
         return self.trace_cell(cell, n_rays, seed)
+
+    def energy(self, traced: TraceResult) -> np.ndarray:
+        """:meth:`window_energy`: the medium's losses stay in the PSF."""
+        return self.window_energy(traced)
 
     @staticmethod
     def window_energy(result: TraceResult) -> np.ndarray:

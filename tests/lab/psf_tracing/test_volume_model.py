@@ -129,3 +129,21 @@ def test_dropping_escaped_photons_biases_the_halo_by_at_most_two_percent():
         m = Volume(VolumeConfig(escape_mfp=esc, psf_resolution=129))
         far[esc] = m.window_energy(m.trace_box((5.0,), (5.0,), n_rays=2 ** 22, seed=9))
     assert np.allclose(far[10.0], far[40.0], rtol=0.02)
+
+
+def test_the_psf_carries_the_media_losses():
+    """model.trace (what the database stores) sums per channel to the light that reaches the
+    image: Beer-Lambert exp(-sigma_t d) for an absorbing medium; more, but less than 1, once the
+    medium also scatters (in-scatter adds, out-scatter and absorption of blue remove)."""
+    n, d = 2 ** 20, 1.5
+    absorbing = Volume(VolumeConfig(albedo=(0.0, 0.0, 0.0), psf_resolution=33, samples=4,
+                                    rays_per_psf=n, min_distance_m=d, max_distance_m=d + 0.01))
+    psf = absorbing.trace(0)
+    expected = math.exp(-0.9 * d)
+    per_channel = n / 3.0
+    for c in range(3):
+        assert psf[..., c].sum() == pytest.approx(expected, abs=6 * math.sqrt(expected / per_channel))
+    foggy = Volume(VolumeConfig(psf_resolution=65, samples=4, rays_per_psf=n, min_distance_m=d,
+                                max_distance_m=d + 0.01))
+    e = foggy.trace(0).sum(axis=(0, 1))
+    assert np.all(e > expected) and np.all(e < 1.0) and e[2] < e[0]

@@ -9,14 +9,29 @@ from __future__ import annotations
 
 import math
 
+from .errors import UserError
+
 __all__ = ["SCENE_SETTINGS", "model_table"]
+
+
+def _round_aperture(table: dict, scene, model: str) -> None:
+    """A thin camera without an iris has a round aperture, and so does its reference: a table
+    asking for another shape would build a database that cannot match it."""
+    given = table.get("aperture", "circle")
+    if given != "circle":
+        raise UserError(f"{scene.source} [psf.{model}] aperture = {given!r}: the scene's [camera] has a "
+                        "round aperture (its reference is traced through a disc), so this database "
+                        "would not match it; remove the key, or give the [camera] that aperture")
 
 
 def _simple_lens(table: dict, scene, image) -> dict:
     """``max_coc_px``: the largest |CoC| of the input, rounded up to a multiple of 8 px (so small
-    scene edits reuse the database); ``psf_resolution``: the smallest that holds it."""
+    scene edits reuse the database); ``psf_resolution``: the smallest that holds it. The
+    aperture is the camera's (round): a table that says otherwise is an error naming both."""
     from .psf_tracing.models.simple_lens import min_psf_resolution
     from .reference.coc import coc_range
+
+    _round_aperture(table, scene, "simple_lens")
 
     if "max_coc_px" not in table:
         needed = coc_range(image, scene.camera.thin_lens()).max_abs_px

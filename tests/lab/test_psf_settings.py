@@ -1,0 +1,35 @@
+"""What a scene decides of a PSF model's settings: the CoC range from its depths, and its aperture."""
+import numpy as np
+import pytest
+
+from lab.errors import UserError
+from lab.exr_io import LabelledImage
+from lab.psf_settings import model_table
+
+from test_plan import THIN, scene
+
+
+def _image(depth_m):
+    h, w = 8, 16
+    return LabelledImage(np.zeros((h, w, 3), np.float32), np.ones((h, w), np.float32),
+                         np.full((h, w), depth_m, np.float32), {})
+
+
+def test_the_cocs_of_the_input_set_the_database_range():
+    s = scene(THIN)
+    lens = s.camera.thin_lens()
+    table = model_table(s, "simple_lens", _image(0.5))
+    needed = abs(float(lens.coc_radius_px(0.5, 16)))
+    assert table["max_coc_px"] >= needed and table["max_coc_px"] % 8 == 0 and table["max_coc_px"] - needed < 8
+    assert table["psf_resolution"] > 2 * table["max_coc_px"]
+    assert model_table(s, "simple_lens", _image(0.5)) == table                # the same scene, the same key
+
+
+@pytest.mark.parametrize("shape", ["star", "heart", "polygon"])
+def test_a_table_that_contradicts_the_round_camera_is_an_error_naming_both(shape):
+    s = scene(THIN, {"simple_lens": {"aperture": shape}})
+    with pytest.raises(UserError) as e:
+        model_table(s, "simple_lens", _image(0.5))
+    msg = str(e.value)
+    assert "p.toml [psf.simple_lens]" in msg and repr(shape) in msg and "round aperture" in msg
+    assert model_table(scene(THIN, {"simple_lens": {"aperture": "circle"}}), "simple_lens", _image(0.5))

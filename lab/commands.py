@@ -132,6 +132,7 @@ def _check_render_options(args, cls) -> None:
 def cmd_render(args) -> int:
     from runtime_cl.passes import get_pass, run_pass
     from runtime_cl.psf.database import SpreadletDatabase
+    from runtime_cl.psf.fingerprint import check_header
 
     from .exr_io import write_rgb
     from .runtime_passes import aperture_info, frame_of, read_input, runtime_camera
@@ -140,6 +141,8 @@ def cmd_render(args) -> int:
     _check_render_options(args, cls)
     image = read_input(args.input, args.camera)
     db = None if args.db is None else SpreadletDatabase.load(args.db)
+    if db is not None:
+        check_header(db, image.camera, f"{args.input} camera")
     options, said = {}, ""
     if args.layers is not None:
         options["layers"] = args.layers

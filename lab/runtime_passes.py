@@ -13,6 +13,7 @@ import numpy as np
 
 from runtime_cl.frame import Frame
 from runtime_cl.passes import get_pass, run_pass
+from runtime_cl.psf.fingerprint import check_header
 
 from .errors import UserError
 
@@ -86,6 +87,8 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
         if not candidates:
             raise UserError(f"runtime pass {label!r} needs a database; the plan built {sorted(dbs)}")
         for db in candidates:
+            if db is not None:
+                check_header(db, image.camera)
             key = label if len(candidates) == 1 else f"{label}:{db.model}"
             frame = frame_of(image, db=db, layered_input=options.get("layered_input", False))
             rendered, timing = run_pass(name, frame, camera, db, runs=runs, **options)

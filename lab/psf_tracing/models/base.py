@@ -118,6 +118,13 @@ class PSFModel(abc.ABC):
                             f"{cell} landed outside the {self.resolution}^2 PSF image; raise psf_resolution")
         return result
 
+    def fingerprint(self) -> dict:
+        """What a labelled image's ``splatlab.camera`` header must say for this model's database to
+        match it: header key -> the value traced (checked by :func:`runtime_cl.psf.fingerprint.
+        check_header` before a render). Default: the aperture, for models with aperture keys."""
+        aperture = getattr(self.config, "header_aperture", None)
+        return {"aperture": aperture()} if aperture is not None else {}
+
     def energy(self, traced: TraceResult) -> np.ndarray | None:
         """Per channel, the light of a traced PSF that reaches the image, relative to the point as
         it would be seen without losses; None (the default) for models whose PSFs are normalised

@@ -103,6 +103,18 @@ class ApertureKeys:
     aperture_image: str | None = None
     aperture_image_sha256: str | None = None
 
+    def header_aperture(self):
+        """The aperture as a ``splatlab.camera`` header states it: None for the circle (the header
+        has no ``aperture``), the iris ``{blades, rotation_deg, rounding}`` for a polygon, else
+        ``{"shape": name}`` (and the image's ``sha256``)."""
+        if self.aperture == "circle":
+            return None
+        if self.aperture == "polygon":
+            return {"blades": self.aperture_blades or 6, "rotation_deg": float(self.aperture_rotation_deg or 0.0),
+                    "rounding": float(self.aperture_rounding or 0.0)}
+        shape = {"shape": self.aperture}
+        return shape if self.aperture_image_sha256 is None else dict(shape, sha256=self.aperture_image_sha256)
+
     def _aperture_params(self) -> dict:
         cls = get_aperture(self.aperture)
         takes = {f.name for f in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else set()

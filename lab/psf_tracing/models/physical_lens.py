@@ -62,6 +62,13 @@ class PhysicalLens(PSFModel):
         return NestedGrid.for_samples(c.samples, c.beta, ((c.near_m, c.far_m), (0.0, c.max_eccentricity)),
                                       ("depth_m", "eccentricity_px"))
 
+    def fingerprint(self) -> dict:
+        """The thin-lens figures of the traced lens a header must match: its paraxial focal length
+        at the focus wavelength, the focus distance and the sensor width."""
+        c = self.config
+        return {"focal_length_mm": self.camera.lens.effective_focal_length_mm(c.focus_wavelength_nm),
+                "focus_distance_m": c.focus_distance_m, "sensor_width_mm": c.sensor_width_mm}
+
     # --- per ray --------------------------------------------------------------------------------
     def _trace(self, coords, rng, status: bool = False):
         cam = self.camera

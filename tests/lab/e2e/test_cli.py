@@ -1,4 +1,6 @@
 """The `splatlab` command line: render contract and bad input (exit 2, one line, nothing left behind)."""
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -133,3 +135,15 @@ def test_database_for_another_model(tiny_input, tiny_db, tmp_path, capsys):
 
 def test_missing_scene_file(tmp_path, capsys):
     _expect_user_error(["plan", tmp_path / "nope.toml"], capsys, "nope.toml", "no such scene file")
+
+
+def test_a_database_for_another_aperture(tiny_input, tiny_db, tmp_path, capsys):
+    """The tiny database traced a round aperture; an input whose camera has an iris is refused."""
+    image = read_labelled(tiny_input)
+    iris = tmp_path / "iris.exr"
+    write_labelled(iris, dataclasses.replace(image, camera=dict(image.camera, aperture={
+        "blades": 6, "rotation_deg": 0.0, "rounding": 0.0})))
+    out = tmp_path / "out.exr"
+    _expect_user_error(["render", iris, "--db", tiny_db, "--out", out], capsys, str(iris), "aperture",
+                       "traced for aperture = None")
+    assert not out.exists()

@@ -102,3 +102,19 @@ def test_throughput_meets_lsr18_pace():
     t = measure_throughput(m)
     assert t.n_rays == 2 ** 24 and t.rays_per_launch == 2 ** 22 and t.resolution == 512
     assert t.mrays_per_second >= 35.0, t
+
+
+@pytest.mark.parametrize("table, aperture", [
+    ({}, None),
+    ({"aperture": "polygon", "aperture_blades": 5}, {"blades": 5, "rotation_deg": 0.0, "rounding": 0.0}),
+    ({"aperture": "star"}, {"shape": "star"}),
+])
+def test_a_database_fingerprint_states_its_aperture_as_the_header_does(table, aperture):
+    model = load_model("simple_lens", dict(table, max_coc_px=8.0))
+    assert model.fingerprint() == {"aperture": aperture}
+
+
+def test_a_physical_lens_fingerprint_is_its_paraxial_thin_lens():
+    fp = load_model("physical_lens", {}).fingerprint()
+    assert fp["focal_length_mm"] == pytest.approx(49.7, abs=0.05)   # R = +-50 mm N-BK7, 8 mm thick
+    assert fp["focus_distance_m"] == 2.0 and fp["sensor_width_mm"] == 36.0

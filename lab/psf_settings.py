@@ -1,9 +1,10 @@
 """What a scene decides of a PSF model's settings: its ``[psf.<model>]`` table, filled in.
 
 A scene's ``[psf.<model>]`` table only overrides; the rest of what the model needs from the scene
-(the largest CoC from the depth range, and later the largest motion, the lens, the medium) is
-derived here, one function per model in :data:`SCENE_SETTINGS`. A model without an entry takes
-its table as it is.
+(the largest CoC from the depth range, the camera's aperture, and later the largest motion, the
+lens, the medium) is derived here, one function per model in :data:`SCENE_SETTINGS`. A table
+that contradicts the scene (a star database for a round camera) is an error naming both. A
+model without an entry takes its table as it is.
 """
 from __future__ import annotations
 
@@ -14,24 +15,28 @@ from .errors import UserError
 __all__ = ["SCENE_SETTINGS", "model_table"]
 
 
-def _round_aperture(table: dict, scene, model: str) -> None:
-    """A thin camera without an iris has a round aperture, and so does its reference: a table
-    asking for another shape would build a database that cannot match it."""
-    given = table.get("aperture", "circle")
-    if given != "circle":
-        raise UserError(f"{scene.source} [psf.{model}] aperture = {given!r}: the scene's [camera] has a "
-                        "round aperture (its reference is traced through a disc), so this database "
-                        "would not match it; remove the key, or give the [camera] that aperture")
+def _same(given, value) -> bool:
+    as_list = (lambda v: list(v) if isinstance(v, (list, tuple)) else v)
+    return as_list(given) == as_list(value)
 
 
-def _simple_lens(table: dict, scene, image) -> dict:
+def _from_camera(table: dict, scene, model: str, keys: dict) -> None:
+    """Set ``keys`` (what the scene's camera decides) in ``table``; a different value given in
+    the table is an error: its database could not match the camera's reference."""
+    for key, value in keys.items():
+        given = table.get(key, value)
+        if not _same(given, value):
+            raise UserError(f"{scene.source} [psf.{model}] {key} = {given!r}: the scene's [camera] asks "
+                            f"for {key} = {value!r} (its reference is traced so), so this database would "
+                            "not match it; remove the key, or change the [camera]")
+        table[key] = value
+
+
+def _coc_range(table: dict, scene, image) -> dict:
     """``max_coc_px``: the largest |CoC| of the input, rounded up to a multiple of 8 px (so small
-    scene edits reuse the database); ``psf_resolution``: the smallest that holds it. The
-    aperture is the camera's (round): a table that says otherwise is an error naming both."""
+    scene edits reuse the database); ``psf_resolution``: the smallest that holds it."""
     from .psf_tracing.models.simple_lens import min_psf_resolution
     from .reference.coc import coc_range
-
-    _round_aperture(table, scene, "simple_lens")
 
     if "max_coc_px" not in table:
         needed = coc_range(image, scene.camera.thin_lens()).max_abs_px
@@ -40,8 +45,22 @@ def _simple_lens(table: dict, scene, image) -> dict:
     return table
 
 
+def _simple_lens(table: dict, scene, image) -> dict:
+    """The camera's round aperture, then the CoC range of :func:`_coc_range`."""
+    _from_camera(table, scene, "simple_lens", {"aperture": "circle"})
+    return _coc_range(table, scene, image)
+
+
+def _stylized(table: dict, scene, image) -> dict:
+    """The camera's shape (``[camera] aperture = { shape = ... }``) and no colour fringes (a thin
+    lens has no glass), then the CoC range of :func:`_coc_range`."""
+    keys = dict(scene.camera.shaped().model_keys(), channel_scale=(1.0, 1.0, 1.0))
+    _from_camera(table, scene, "stylized", keys)
+    return _coc_range(table, scene, image)
+
+
 # Model name -> fill(table, scene, labelled input) -> table.
-SCENE_SETTINGS = {"simple_lens": _simple_lens}
+SCENE_SETTINGS = {"simple_lens": _simple_lens, "stylized": _stylized}
 
 
 def model_table(scene, model_name: str, image) -> dict:

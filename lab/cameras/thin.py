@@ -1,13 +1,17 @@
-"""The thin lens, optionally with a polygonal iris: ``[camera] model = "thin"``.
+"""The thin lens, round, with a polygonal iris or a stylized aperture: ``[camera] model = "thin"``.
 
 - Scene keys: ``focal_length_mm``, exactly one of ``f_number`` and ``aperture_radius_mm``
-  (a = f / 2N), ``focus_distance_m``, and ``aperture = { blades, rotation_deg, rounding }`` for
-  a polygonal iris (:class:`lab.optics.iris.Iris`; its circumradius is the aperture radius).
-- Runtime twin: :class:`runtime_cl.camera.thin_lens.ThinLens` (the iris does not change its CoC).
-- Header: the twin's JSON, the iris as ``"aperture"``, the shutter.
+  (a = f / 2N), ``focus_distance_m``, and ``aperture``: ``{ blades, rotation_deg, rounding }``
+  for a polygonal iris (:class:`lab.optics.iris.Iris`) or ``{ shape = "star" | "heart" |
+  "image", path }`` for a stylized one (:class:`lab.cameras.shaped_aperture.ShapedAperture`);
+  either's circumradius is the aperture radius.
+- Runtime twin: :class:`runtime_cl.camera.thin_lens.ThinLens` (the aperture's shape does not
+  change its CoC).
+- Header: the twin's JSON, the iris or the shape as ``"aperture"``, the shutter.
 - Plan: a round aperture runs the spreadlet passes on a ``simple_lens`` database against
-  Mitsuba's ``thinlens``; an iris runs MHU21's exact polygon passes (no PSF database) against the
-  same lens through the iris (:mod:`lab.reference.polygon_lens`).
+  Mitsuba's ``thinlens``; an iris runs MHU21's exact polygon passes (no PSF database), a shape
+  the spreadlet passes on a ``stylized`` database, both against the same lens through that
+  aperture (:mod:`lab.reference.aperture_lens`).
 """
 from __future__ import annotations
 
@@ -22,6 +26,7 @@ from ..errors import UserError
 from ..optics.iris import Iris
 from ..plan import Step
 from .base import Camera, register_camera
+from .shaped_aperture import ShapedAperture
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
 
@@ -40,8 +45,9 @@ class ThinCamera(Camera):
     focus_distance_m : float
         Distance of the plane in focus along the optical axis (> focal length).
     aperture : dict, optional
-        A polygonal iris instead of the round aperture, ``{ blades = 6, rotation_deg = 0,
-        rounding = 0 }`` (:class:`lab.optics.iris.Iris`); its circumradius is the aperture radius.
+        Instead of the round aperture, a polygonal iris ``{ blades = 6, rotation_deg = 0,
+        rounding = 0 }`` (:class:`lab.optics.iris.Iris`) or a stylized shape ``{ shape = "star" }``
+        (:class:`lab.cameras.shaped_aperture.ShapedAperture`); its circumradius is the aperture radius.
     """
 
     runtime = ThinLens
@@ -75,14 +81,23 @@ class ThinCamera(Camera):
             raise UserError(f"focus_distance_m = {self.focus_distance_m} is closer than the focal length "
                             f"({self.focal_length_mm} mm); use a focus distance > "
                             f"{self.focal_length_mm / 1000.0} m")
-        self.iris()  # validates the aperture table
+        self.iris(), self.shaped()  # validates the aperture table
 
     def iris(self) -> Iris | None:
-        """The polygonal iris of ``aperture``, ``None`` for a round aperture."""
+        """The polygonal iris of ``aperture``, ``None`` for a round or stylized aperture."""
         if self.aperture is not None and not isinstance(self.aperture, dict):
             raise UserError(f"aperture = {self.aperture!r}: write the iris as a table, e.g. aperture = "
-                            "{ blades = 6, rotation_deg = 0 }, or remove it for a round aperture")
-        return None if self.aperture is None else from_table(Iris, self.aperture, "aperture")
+                            "{ blades = 6, rotation_deg = 0 }, a shape as { shape = \"star\" }, or remove "
+                            "it for a round aperture")
+        if self.aperture is None or "shape" in self.aperture:
+            return None
+        return from_table(Iris, self.aperture, "aperture")
+
+    def shaped(self) -> ShapedAperture | None:
+        """The stylized aperture (``aperture = { shape = ... }``), ``None`` otherwise."""
+        if not isinstance(self.aperture, dict) or "shape" not in self.aperture:
+            return None
+        return from_table(ShapedAperture, self.aperture, "aperture")
 
     def runtime_camera(self) -> ThinLens:
         n = self.f_number
@@ -96,20 +111,29 @@ class ThinCamera(Camera):
 
     def camera_json(self) -> dict:
         data = self.runtime_camera().to_json()
-        if self.aperture is not None:
-            data["aperture"] = self.iris().to_json()
+        shape = self.iris() or self.shaped()
+        if shape is not None:
+            data["aperture"] = shape.to_json()
         data["shutter"] = [0.0, 1.0]
         return data
 
     @classmethod
     def check_header(cls, data: dict, source: str) -> None:
         """The iris (``"aperture"``), which :meth:`ThinLens.from_json` passes on unchecked."""
-        if "aperture" in data:
+        aperture = data.get("aperture")
+        if isinstance(aperture, dict) and "shape" in aperture:
+            if aperture.get("shape") not in ("star", "heart", "image") or \
+                    set(aperture) - {"shape", "sha256"}:
+                raise UserError(f"{source} aperture = {aperture!r}: a stylized aperture is "
+                                "{\"shape\": \"star\" | \"heart\" | \"image\"} (an image with its \"sha256\")")
+        elif "aperture" in data:
             from_table(Iris, data["aperture"], f"{source} aperture")
 
     def plan(self, scene) -> dict:
         if self.iris() is not None:
             return self._plan_iris(scene)
+        if self.shaped() is not None:
+            return self._plan_shaped(scene)
         r = scene.render
         return {
             "dof": self._dof(),
@@ -145,7 +169,7 @@ class ThinCamera(Camera):
                          f"rounding {iris.rounding:g})"),
             "psf_models": (),
             "references": (Step("mitsuba_polygon_lens", f"Mitsuba path trace through the thin lens with the "
-                                                        f"{iris.blades}-blade iris (lab.reference.polygon_lens), "
+                                                        f"{iris.blades}-blade iris (lab.reference.aperture_lens), "
                                                         f"{r.reference_spp} spp, max depth {r.max_depth}"),),
             "runtime_passes": passes,
             "pass_runs": {"polygon_layers": ("polygon", {"layers": DEPTH_LAYERS}),
@@ -153,16 +177,33 @@ class ThinCamera(Camera):
             "skipped": tuple(skipped),
         }
 
+    def _plan_shaped(self, scene) -> dict:
+        shape, r = self.shaped(), scene.render
+        return {
+            "dof": self._dof(),
+            "aperture": f"{shape.shape} (stylized)",
+            "psf_models": ("stylized",),
+            "references": (Step("mitsuba_aperture_lens", f"Mitsuba path trace through the thin lens with "
+                                                         f"the {shape.shape} aperture (lab.reference."
+                                                         f"aperture_lens), {r.reference_spp} spp, max depth "
+                                                         f"{r.max_depth}"),),
+            "runtime_passes": ("spreadlets", "splat", "filter"),
+            "skipped": (Step("polygon passes", f"MHU21's kernels are polygons; a {shape.shape} aperture "
+                                               "runs through the stylized database"),),
+        }
+
     def mitsuba_sensor(self, sensor: dict) -> dict:
         """Mitsuba's ``thinlens`` (aperture radius f / 2N, planar focus distance), or with an iris
-        the Python sensor of :mod:`lab.reference.polygon_lens`."""
-        lens, iris = self.runtime_camera(), self.iris()
+        or a stylized shape the Python sensor of :mod:`lab.reference.aperture_lens`."""
+        lens, iris, shaped = self.runtime_camera(), self.iris(), self.shaped()
         out = dict(sensor, type="thinlens", aperture_radius=lens.aperture_radius_m,
                    focus_distance=lens.focus_distance_m)
-        if iris is not None:
-            from ..reference.polygon_lens import register
+        if iris is not None or shaped is not None:
+            from ..reference.aperture_lens import register
 
             del out["fov_axis"]   # the plugin's fov is horizontal
-            out.update(type=register(), blades=iris.blades, rotation_deg=iris.rotation_deg,
-                       rounding=iris.rounding)
+            out["type"] = register()
+            out.update(shaped.sensor_params() if shaped is not None else
+                       {"aperture": "polygon", "blades": iris.blades, "rotation_deg": iris.rotation_deg,
+                        "rounding": iris.rounding})
         return out

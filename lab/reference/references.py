@@ -26,7 +26,8 @@ def _the_input(scene, image, progress: bool) -> np.ndarray:
 
 
 # Step name -> renderer(scene, labelled input, progress) -> (H, W, 3) radiance.
-REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "pinhole": _the_input}
+REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
+              "pinhole": _the_input}
 
 
 def render_reference_step(name: str, scene, image, progress: bool = True) -> np.ndarray:

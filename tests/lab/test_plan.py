@@ -73,3 +73,24 @@ def test_occlusion_scene_plan_uses_its_layers():
     assert [i.name for i in plan.inputs] == ["pinhole_labelled", "layered_labelled"]
     assert "layer0..2" in plan.inputs[1].detail
     assert not any("180-degree" in s.name for s in plan.skipped)     # 6 blades: point-symmetric
+
+
+def test_a_stylized_aperture_plans_the_stylized_model_through_its_own_sensor():
+    plan = make_plan(scene(dict(THIN, aperture={"shape": "star"})))
+    assert plan.psf_models == ("stylized",) and plan.effects["aperture"] == "star (stylized)"
+    assert [r.name for r in plan.references] == ["mitsuba_aperture_lens"]
+    assert plan.runtime_passes == ("spreadlets", "splat", "filter")
+    assert scene(dict(THIN, aperture={"shape": "star"})).camera.camera_json()["aperture"] == {"shape": "star"}
+
+
+def test_bad_stylized_apertures_are_errors_naming_the_key():
+    import pytest
+
+    from lab.errors import UserError
+
+    with pytest.raises(UserError, match=r"aperture shape = 'moon'.*\['star', 'heart', 'image'\]"):
+        scene(dict(THIN, aperture={"shape": "moon"}))
+    with pytest.raises(UserError, match="needs path"):
+        scene(dict(THIN, aperture={"shape": "image"}))
+    with pytest.raises(UserError, match="unknown key"):
+        scene(dict(THIN, aperture={"shape": "star", "blades": 6}))

@@ -31,5 +31,17 @@ def test_a_table_that_contradicts_the_round_camera_is_an_error_naming_both(shape
     with pytest.raises(UserError) as e:
         model_table(s, "simple_lens", _image(0.5))
     msg = str(e.value)
-    assert "p.toml [psf.simple_lens]" in msg and repr(shape) in msg and "round aperture" in msg
+    assert "p.toml [psf.simple_lens]" in msg and repr(shape) in msg and "aperture = 'circle'" in msg
     assert model_table(scene(THIN, {"simple_lens": {"aperture": "circle"}}), "simple_lens", _image(0.5))
+
+
+def test_a_stylized_camera_sets_the_shape_and_no_fringes():
+    s = scene(dict(THIN, aperture={"shape": "heart"}))
+    table = model_table(s, "stylized", _image(0.5))
+    assert table["aperture"] == "heart" and table["channel_scale"] == (1.0, 1.0, 1.0)
+    with pytest.raises(UserError, match=r"\[psf.stylized\] aperture = 'star'.*aperture = 'heart'"):
+        model_table(scene(dict(THIN, aperture={"shape": "heart"}), {"stylized": {"aperture": "star"}}),
+                    "stylized", _image(0.5))
+    with pytest.raises(UserError, match=r"channel_scale = \[1.0, 0.9, 0.8\]"):
+        model_table(scene(dict(THIN, aperture={"shape": "heart"}), {"stylized": {"channel_scale": [1.0, 0.9, 0.8]}}),
+                    "stylized", _image(0.5))

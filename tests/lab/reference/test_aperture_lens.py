@@ -1,9 +1,10 @@
-"""The polygonal-iris thin-lens sensor against the camera contract, as ``thinlens`` is checked.
+"""The shaped-aperture thin-lens sensor against the camera contract, as ``thinlens`` is checked.
 
 Two small bright emitters, one far behind the focus plane and one in front of it, through a
-5-blade iris rotated by 10 degrees (no symmetry hides a flip): each must image to the iris
-scaled to ``ThinLens.coc_radius_px``, centred on its pinhole projection, upright behind the
-focus plane and turned by 180 degrees in front of it. The expected spot is the iris indicator
+5-blade iris rotated by 10 degrees (no symmetry hides a flip) and through the stylized heart
+(point down: a turn shows): each must image to the aperture scaled to
+``ThinLens.coc_radius_px``, centred on its pinhole projection, upright behind the focus plane
+and turned by 180 degrees in front of it. The expected spot is the iris indicator
 (``PolygonAperture.contains``) convolved with the emitter's own disc and the box pixel; the
 radius that fits the render best must be the predicted one, and the 180-degree turned or
 mirrored iris must fit clearly worse.
@@ -14,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.signal import fftconvolve
 
-from lab.optics.aperture import PolygonAperture
+from lab.optics.aperture import PolygonAperture, make_aperture
 from lab.reference.mitsuba_scene import scene_dict
 from lab.reference.render import render_pinhole, render_reference
 from lab.scene import parse_scene
@@ -24,11 +25,10 @@ IRIS = {"blades": 5, "rotation_deg": 10.0}
 POINTS = {"background": ((20.0, 20.0), 4.0, 1.0), "foreground": ((44.0, 44.0), 0.5, -1.0)}
 
 
-@pytest.fixture(scope="module")
-def spots():
+def _render(aperture):
     cam = {"model": "thin", "position": [0, 0, 0], "look_at": [0, 0, 1], "focal_length_mm": 50.0,
            "aperture_radius_mm": 150.0, "focus_distance_m": 1.0, "sensor_width_mm": 36.0,
-           "aperture": IRIS}   # a huge aperture: spots of 10-14 px at 64 px
+           "aperture": aperture}   # a huge aperture: spots of 10-14 px at 64 px
     base = {"scene": {"name": "iris", "resolution": [W, W]}, "camera": cam, "render": {"max_depth": 1}}
     lens = parse_scene({**base, "emitters": [{"type": "constant", "radiance": [0, 0, 0]}]},
                        "iris.toml").camera.thin_lens()
@@ -39,6 +39,16 @@ def spots():
     scene = parse_scene({**base, "shapes": shapes}, "iris.toml")
     img = render_reference(scene, spp=4096, progress=False)[..., 0].astype(np.float64)
     return scene, lens, img
+
+
+@pytest.fixture(scope="module")
+def spots():
+    return _render(IRIS)
+
+
+@pytest.fixture(scope="module")
+def heart_spots():
+    return _render({"shape": "heart"})
 
 
 def expected_spot(iris, centre, radius, sign):
@@ -56,15 +66,14 @@ def expected_spot(iris, centre, radius, sign):
 def test_scene_dict_uses_the_polygon_sensor(spots):
     scene, lens, _ = spots
     sensor = scene_dict(scene, "scene")["sensor"]
-    assert sensor["type"] == "splatlab_polygon_thinlens"
+    assert sensor["type"] == "splatlab_aperture_thinlens" and sensor["aperture"] == "polygon"
     assert (sensor["blades"], sensor["rotation_deg"]) == (5, 10.0)
     assert sensor["aperture_radius"] == pytest.approx(lens.aperture_radius_m)
     assert scene_dict(scene, "pinhole")["sensor"]["type"] == "perspective"
 
 
-@pytest.mark.parametrize("name", list(POINTS))
-def test_spot_is_the_iris_at_the_thin_lens_coc(spots, name):
-    _, lens, img = spots
+def _check_spot(rendered, name, aperture, mirrored=None):
+    _, lens, img = rendered
     centre, z, sign = POINTS[name]
     ys, xs = np.mgrid[0:W, 0:W] + 0.5
     side = (xs + ys < W) if sign > 0 else (xs + ys > W)
@@ -73,18 +82,30 @@ def test_spot_is_the_iris_at_the_thin_lens_coc(spots, name):
     radius = abs(float(lens.coc_radius_px(z, W)))
     assert radius > 10 and np.sign(lens.coc_radius_px(z, W)) == sign
 
-    def misfit(iris, r, s=sign):
-        e = np.where(side, expected_spot(iris, centre, r, s), 0.0)
+    def misfit(shape, r, s=sign):
+        e = np.where(side, expected_spot(shape, centre, r, s), 0.0)
         return float(((measured - e / e.sum()) ** 2).sum())
 
-    iris = PolygonAperture(**IRIS)
     radii = radius + np.arange(-12, 13) * 0.125
-    best = radii[np.argmin([misfit(iris, r) for r in radii])]
+    best = radii[np.argmin([misfit(aperture, r) for r in radii])]
     assert best == pytest.approx(radius, abs=0.25)
-    at_prediction = misfit(iris, radius)
-    assert misfit(iris, radius, -sign) > 2.5 * at_prediction          # not turned the other way
-    mirrored = PolygonAperture(blades=5, rotation_deg=-IRIS["rotation_deg"])
-    assert misfit(mirrored, radius) > 2.5 * at_prediction             # not mirrored (camera-space x)
+    at_prediction = misfit(aperture, radius)
+    assert misfit(aperture, radius, -sign) > 2.5 * at_prediction       # not turned the other way
+    if mirrored is not None:
+        assert misfit(mirrored, radius) > 2.5 * at_prediction          # not mirrored (camera-space x)
+
+
+@pytest.mark.parametrize("name", list(POINTS))
+def test_spot_is_the_iris_at_the_thin_lens_coc(spots, name):
+    _check_spot(spots, name, PolygonAperture(**IRIS),
+                PolygonAperture(blades=5, rotation_deg=-IRIS["rotation_deg"]))
+
+
+@pytest.mark.parametrize("name", list(POINTS))
+def test_spot_is_the_stylized_heart_at_the_thin_lens_coc(heart_spots, name):
+    scene = heart_spots[0]
+    assert scene_dict(scene, "scene")["sensor"]["aperture"] == "heart"
+    _check_spot(heart_spots, name, make_aperture("heart"))      # the heart is its own mirror image
 
 
 def test_exposure_matches_the_pinhole(spots):

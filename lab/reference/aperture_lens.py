@@ -1,17 +1,18 @@
-"""A Mitsuba 3 thin-lens sensor with a polygonal iris: the reference for polygonal bokeh.
+"""A Mitsuba 3 thin-lens sensor with any aperture shape: the reference for shaped bokeh.
 
 Mitsuba's ``thinlens`` samples a disc. This Python sensor (``mi.register_sensor``; a thin-lens
-camera with an iris chooses it, :meth:`lab.cameras.thin.ThinCamera.mitsuba_sensor`) is the same
-camera with the lens point drawn uniformly from :class:`lab.optics.aperture.polygon.PolygonAperture`
-(the lab's one iris sampler) scaled to the aperture radius, its circumradius: the pinhole ray of
+camera with an iris or a stylized aperture chooses it, :meth:`lab.cameras.thin.ThinCamera.
+mitsuba_sensor`) is the same camera with the lens point drawn uniformly from the lab's own
+aperture sampler (:mod:`lab.optics.aperture`: a polygonal iris, a star, a heart, an image; the
+one the PSF models trace) scaled to the aperture radius, its circumradius: the pinhole ray of
 the position sample fixes the point on the planar focus plane at ``focus_distance`` (camera
 space z), and the ray runs from the lens point through it, as in Mitsuba's ``thinlens.cpp``
 (same projection, near/far clip handling and weight 1). A point at planar depth z then images
 to the iris scaled to the CoC radius of :class:`runtime_cl.camera.thin_lens.ThinLens`, upright behind
 the focus plane and rotated by 180 degrees in front of it.
 
-Orientation: the iris is given as seen in the image (x right, y up); Mitsuba's camera space has
-+x on the image's left, so the lens point is mirrored in x.
+Orientation: the aperture is given as seen in the image (x right, y up); Mitsuba's camera space
+has +x on the image's left, so the lens point is mirrored in x.
 """
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ import functools
 
 from .backend import mitsuba
 
-PLUGIN = "splatlab_polygon_thinlens"
+PLUGIN = "splatlab_aperture_thinlens"
+SHAPE_PARAMS = ("blades", "rotation_deg", "rounding", "path")   # plugin properties an aperture takes
 
 
 @functools.cache
@@ -27,20 +29,23 @@ def register() -> str:
     """Register the sensor plugin (once per process); returns its ``type`` name for scene dicts.
 
     Parameters of the plugin: ``fov`` (horizontal, degrees), ``to_world``, ``aperture_radius``
-    (metres), ``focus_distance`` (metres), ``blades``, ``rotation_deg``, ``rounding`` (the iris,
-    :class:`lab.optics.iris.Iris`), optional ``near_clip``/``far_clip``, a film and a sampler.
+    (metres), ``focus_distance`` (metres), ``aperture`` (a registered shape name) with its
+    parameters (``blades``, ``rotation_deg``, ``rounding`` for ``"polygon"``, the iris of
+    :class:`lab.optics.iris.Iris`; ``path`` for ``"image"``), optional ``near_clip``/``far_clip``,
+    a film and a sampler.
     """
     mi = mitsuba()
     import drjit as dr
     from drjit.llvm import Array2f, Float
 
-    from ..optics.aperture.polygon import PolygonAperture
+    from ..optics.aperture import make_aperture
 
-    class PolygonThinLens(mi.Sensor):
+    class ApertureThinLens(mi.Sensor):
         def __init__(self, props):
             super().__init__(props)
-            self.iris = PolygonAperture(blades=props.get("blades"), rotation_deg=props.get("rotation_deg", 0.0),
-                                        rounding=props.get("rounding", 0.0))
+            name = props.get("aperture")
+            params = {k: props.get(k) for k in SHAPE_PARAMS if k in props}
+            self.iris = make_aperture(name, **params)
             self.radius = float(props.get("aperture_radius"))
             self.focus = float(props.get("focus_distance"))
             self.near, self.far = float(props.get("near_clip", 1e-2)), float(props.get("far_clip", 1e4))
@@ -73,8 +78,8 @@ def register() -> str:
             return mi.ScalarBoundingBox3f(mi.ScalarPoint3f(p.x[0], p.y[0], p.z[0]))
 
         def to_string(self):
-            return (f"PolygonThinLens[iris={self.iris}, aperture_radius={self.radius}, "
+            return (f"ApertureThinLens[aperture={self.iris}, aperture_radius={self.radius}, "
                     f"focus_distance={self.focus}]")
 
-    mi.register_sensor(PLUGIN, lambda props: PolygonThinLens(props))
+    mi.register_sensor(PLUGIN, lambda props: ApertureThinLens(props))
     return PLUGIN

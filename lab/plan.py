@@ -100,16 +100,18 @@ def make_plan(scene) -> Plan:
     r = scene.render
     skipped = list(rule["skipped"]) + [
         Step("motion blur", "the scene has no moving objects or camera motion"),
-        Step("participating medium", "the scene has no medium"),
         Step("chromatic aberration", "the camera has no glass (thin lens or pinhole)"),
     ]
+    if scene.medium is None:
+        skipped.append(Step("participating medium", "the scene has no medium"))
     if rule["aperture"] == "circle":
         skipped.append(Step("polygonal bokeh (MHU21)", "the thin-lens aperture is a circle"))
     unused = sorted(set(scene.psf) - set(rule["psf_models"]))
     if unused:
         skipped.append(Step(f"[psf.{', psf.'.join(unused)}]", "given in the scene but not needed by "
                                                              "this camera"))
-    effects = {"dof": rule["dof"], "motion": "none", "medium": "none", "chromatic": "none",
+    effects = {"dof": rule["dof"], "motion": "none",
+               "medium": "none" if scene.medium is None else scene.medium.describe(), "chromatic": "none",
                "aperture": rule["aperture"]}
     inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
                                        "centres, camera in the EXR header"),)

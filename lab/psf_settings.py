@@ -59,8 +59,34 @@ def _stylized(table: dict, scene, image) -> dict:
     return _coc_range(table, scene, image)
 
 
+def _volume(table: dict, scene, image) -> dict:
+    """The scene's medium, the input's pixel scale (the PSFs are the camera's pinhole images) and
+    the range of distances from the camera to what the pixels see, rounded out to 0.5 m (so
+    small scene edits reuse the database)."""
+    import numpy as np
+    from runtime_cl.coords.common import pixel_offsets
+
+    camera = scene.camera.runtime_camera()
+    w, h = image.width, image.height
+    fov = math.radians(camera.fov_x_deg())
+    keys = dict(scene.medium.model_keys(), width_px=w, sensor_width_mm=36.0,
+                focal_length_mm=18.0 / math.tan(fov / 2.0))
+    _from_camera(table, scene, "volume", keys)
+    depth = np.asarray(image.depth, np.float64)
+    sky = int(np.count_nonzero(~np.isfinite(depth)))
+    if sky:
+        raise UserError(f"{scene.source} [medium]: the medium fills the scene, but {sky} pixel(s) see no "
+                        "surface (infinite distance, where no light gets through the fog): close the "
+                        "view with a wall or a floor")
+    x, y = pixel_offsets(h, w)
+    distance = depth * np.sqrt(1.0 + (x * x + y * y) / camera.focal_px(w) ** 2)   # as the runtime maps it
+    table.setdefault("min_distance_m", math.floor(2.0 * float(distance.min())) / 2.0)
+    table.setdefault("max_distance_m", math.ceil(2.0 * float(distance.max())) / 2.0)
+    return table
+
+
 # Model name -> fill(table, scene, labelled input) -> table.
-SCENE_SETTINGS = {"simple_lens": _simple_lens, "stylized": _stylized}
+SCENE_SETTINGS = {"simple_lens": _simple_lens, "stylized": _stylized, "volume": _volume}
 
 
 def model_table(scene, model_name: str, image) -> dict:

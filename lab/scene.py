@@ -1,7 +1,8 @@
 """Scene files (TOML) -> validated, frozen dataclasses.
 
 A scene file has the tables ``[scene]`` (name, resolution), ``[camera]``, ``[render]``,
-``[materials.NAME]``, ``[[shapes]]``, ``[[emitters]]``, ``[psf.MODEL]`` and ``[precompute]``.
+``[materials.NAME]``, ``[[shapes]]``, ``[[emitters]]``, ``[medium]`` (:class:`lab.medium.Medium`),
+``[psf.MODEL]`` and ``[precompute]``.
 Every table goes through :func:`lab.config.from_table`, so unknown keys are errors that name the
 file, the table and the known keys. Materials, shapes and emitters live in
 :mod:`lab.scene_objects`; the ``[camera]`` table is read by its model's class in :mod:`lab.cameras`.
@@ -17,9 +18,10 @@ from pathlib import Path
 from .cameras import Camera, parse_camera
 from .config import from_table, to_table
 from .errors import UserError
+from .medium import Medium
 from .scene_objects import Emitter, Material, Shape, parse_material, parse_shape, strip_none
 
-SECTIONS = ("scene", "camera", "render", "materials", "shapes", "emitters", "psf", "precompute")
+SECTIONS = ("scene", "camera", "render", "materials", "shapes", "emitters", "medium", "psf", "precompute")
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,7 @@ class Scene:
     emitters: tuple[Emitter, ...]
     psf: dict[str, dict]
     precompute: dict
+    medium: Medium | None = None
 
     @property
     def name(self) -> str:
@@ -100,6 +103,7 @@ class Scene:
             "shapes": [to_table(s) for s in self.shapes],
             "emitters": [to_table(e) for e in self.emitters],
             "psf": {k: dict(v) for k, v in sorted(self.psf.items())}, "precompute": dict(self.precompute),
+            "medium": None if self.medium is None else to_table(self.medium),
         })
 
 
@@ -151,9 +155,12 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
     if layers != list(range(len(layers))):
         raise UserError(f"{source}: [[shapes]] use layer = {layers}; number the input layers 0, 1, ... "
                         "from the nearest without gaps (untagged shapes form the last layer)")
+    medium = None
+    if "medium" in data:
+        medium = from_table(Medium, _table(data, "medium", source), f"{source} [medium]")
     return Scene(source=source, info=info, camera=camera, render=render, materials=materials,
                  shapes=shapes, emitters=emitters, psf={k: dict(v) for k, v in psf.items()},
-                 precompute=dict(_table(data, "precompute", source, default={})))
+                 precompute=dict(_table(data, "precompute", source, default={})), medium=medium)
 
 
 def _read_toml(path) -> dict:

@@ -5,7 +5,8 @@
 - Runtime twin: :class:`runtime_cl.camera.pinhole.Pinhole` (CoC 0 everywhere).
 - Header: ``{"lens": "pinhole", "fov_x_deg": ..., "shutter": [0, 1]}``.
 - Plan: no defocus, so no PSF database; the pinhole render is its own reference and the runtime
-  pass is ``identity``.
+  pass is ``identity``. With a ``[medium]`` (:class:`lab.medium.Medium`): the ``volume`` PSF model
+  through the spreadlet passes against a Mitsuba ``volpath`` reference through the medium.
 - Mitsuba: the ``perspective`` sensor itself.
 """
 from __future__ import annotations
@@ -67,6 +68,16 @@ class PinholeCamera(Camera):
 
     def plan(self, scene) -> dict:
         r = scene.render
+        if scene.medium is not None:
+            return {
+                "dof": "none",
+                "aperture": "none (pinhole)",
+                "psf_models": ("volume",),
+                "references": (Step("mitsuba_volpath", f"Mitsuba volpath through the medium, {r.reference_spp} "
+                                                       f"spp, max depth {r.max_depth}"),),
+                "runtime_passes": ("spreadlets", "splat", "filter"),
+                "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),),
+            }
         return {
             "dof": "none",
             "aperture": "none (pinhole)",

@@ -130,6 +130,10 @@ class ThinCamera(Camera):
             from_table(Iris, data["aperture"], f"{source} aperture")
 
     def plan(self, scene) -> dict:
+        if scene.medium is not None:
+            raise UserError(f"{scene.source} [medium]: a medium with a thin lens; no PSF model combines "
+                            "defocus and scattering (LSR18's Volume PSFs are a pinhole's): set [camera] "
+                            "model = \"pinhole\" for fog, or remove [medium]")
         if self.iris() is not None:
             return self._plan_iris(scene)
         if self.shaped() is not None:

@@ -76,7 +76,12 @@ def sensor_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
     return cam.mitsuba_sensor(out) if sensor == "scene" else out
 
 
-def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
+def _medium(m) -> dict:
+    return {"type": "homogeneous", "sigma_t": float(m.sigma_t), "albedo": _rgb(m.albedo),
+            "phase": {"type": "hg", "g": float(m.g)}}
+
+
+def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool = False) -> dict:
     """The whole Mitsuba scene dict (``mi.load_dict`` it) with a ``path`` integrator.
 
     Parameters
@@ -89,15 +94,25 @@ def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
         position, orientation and horizontal fov.
     spp : int
         Samples per pixel stored in the sampler (``mi.render(spp=...)`` may override it).
+    medium : bool, default False
+        Fill the scene with its ``[medium]`` (the reference; the labelled input is rendered
+        without it): a ``volpath`` integrator, the medium around the sensor and outside every shape.
     """
-    out = {"type": "scene", "integrator": {"type": "path", "max_depth": scene.render.max_depth},
+    fog = medium and scene.medium is not None
+    out = {"type": "scene", "integrator": {"type": "volpath" if fog else "path",
+                                           "max_depth": scene.render.max_depth},
            "sensor": sensor_dict(scene, sensor, spp)}
+    if fog:
+        out["medium"] = _medium(scene.medium)
+        out["sensor"]["medium"] = {"type": "ref", "id": "medium"}
     material_ids = {name: f"material_{i}" for i, name in enumerate(sorted(scene.materials))}
     for name, key in material_ids.items():
         m = scene.materials[name]
         out[key] = MATERIALS[m.type](m)
     for i, shape in enumerate(scene.shapes):
         out[f"shape_{i}"] = _shape(shape, material_ids)
+        if fog:
+            out[f"shape_{i}"]["exterior"] = {"type": "ref", "id": "medium"}
     for i, emitter in enumerate(scene.emitters):
         out[f"emitter_{i}"] = _emitter(emitter)
     return out

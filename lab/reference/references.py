@@ -14,7 +14,8 @@ __all__ = ["REFERENCES", "render_reference_step"]
 
 
 def _mitsuba(scene, image, progress: bool) -> np.ndarray:
-    """A Mitsuba path trace through the scene camera's own sensor (thin lens, iris)."""
+    """A Mitsuba path trace through the scene camera's own sensor (thin lens, iris, shape) and its
+    medium (volpath)."""
     from .render import render_reference
 
     return render_reference(scene, progress=progress)
@@ -27,7 +28,7 @@ def _the_input(scene, image, progress: bool) -> np.ndarray:
 
 # Step name -> renderer(scene, labelled input, progress) -> (H, W, 3) radiance.
 REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
-              "pinhole": _the_input}
+              "mitsuba_volpath": _mitsuba, "pinhole": _the_input}
 
 
 def render_reference_step(name: str, scene, image, progress: bool = True) -> np.ndarray:

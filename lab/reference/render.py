@@ -94,14 +94,15 @@ def render_passes(mi_scene, spp: int, seed: int, stream: str, pass_spp: int | No
     return (total / spp)[..., :3].astype(np.float32)
 
 
-def load(scene: Scene, sensor: str = "scene"):
+def load(scene: Scene, sensor: str = "scene", medium: bool = False):
     """``mi.load_dict`` of :func:`~lab.reference.mitsuba_scene.scene_dict`."""
-    return mitsuba().load_dict(scene_dict(scene, sensor))
+    return mitsuba().load_dict(scene_dict(scene, sensor, medium=medium))
 
 
 def render_reference(scene: Scene, spp: int | None = None, pass_spp: int | None = None,
                      progress: bool = True) -> np.ndarray:
-    """The path-traced reference through the scene's own camera (thin lens or pinhole).
+    """The path-traced reference through the scene's own camera (thin lens or pinhole), and
+    through the scene's ``[medium]`` if it has one (``volpath``).
 
     Parameters
     ----------
@@ -118,7 +119,7 @@ def render_reference(scene: Scene, spp: int | None = None, pass_spp: int | None 
     (H, W, 3) float32 linear radiance.
     """
     spp = scene.render.reference_spp if spp is None else spp
-    return render_passes(load(scene, "scene"), spp, scene.render.seed, "reference", pass_spp,
+    return render_passes(load(scene, "scene", medium=True), spp, scene.render.seed, "reference", pass_spp,
                          progress, desc=f"reference {scene.name}")
 
 

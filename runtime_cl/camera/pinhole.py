@@ -6,6 +6,7 @@ records the horizontal field of view, which places the pixels.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -40,6 +41,10 @@ class Pinhole:
     def fov_x_deg(self) -> float:
         """Horizontal field of view in degrees."""
         return self.fov_deg
+
+    def focal_px(self, width_px: int) -> float:
+        """Focal distance in pixels of an image ``width_px`` wide (pixels per unit tangent)."""
+        return width_px / (2.0 * math.tan(math.radians(self.fov_deg) / 2.0))
 
     def coc_radius_px(self, z_m, width_px: int):
         """Zeros shaped like ``z_m`` (metres; checked as :meth:`ThinLens.coc_radius_px` checks it):

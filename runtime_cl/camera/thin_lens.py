@@ -68,6 +68,11 @@ class ThinLens:
         """Horizontal field of view of the sensor at the image distance (focus breathing included)."""
         return math.degrees(2.0 * math.atan(self.sensor_width_mm / 2000.0 / self.image_distance_m))
 
+    def focal_px(self, width_px: int) -> float:
+        """Focal distance in pixels of an image ``width_px`` wide: the image distance on the sensor
+        (pixels per unit tangent of the pinhole view at the lens centre)."""
+        return self.image_distance_m * width_px / (self.sensor_width_mm / 1000.0)
+
     def coc_scale_px(self, width_px: int) -> float:
         """a v W / sensor_width: the CoC radius in pixels per dioptre of defocus (1/F - 1/z)."""
         return self.aperture_radius_m * self.image_distance_m * width_px / (self.sensor_width_mm / 1000.0)

@@ -13,7 +13,6 @@ from runtime_cl.coords.common import (PsfCoords, as_depth, check_symmetries, exp
                             wrap_angle)
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.errors import InputError
-from runtime_cl.camera.thin_lens import ThinLens
 
 # The traced direction of symmetry optical_axis: image +x (lab.psf_tracing.models.common)
 OPTICAL_AXIS_REFERENCE_RAD = 0.0
@@ -65,11 +64,11 @@ def physical_lens_coords(camera, depth, db: SpreadletDatabase, motion=None) -> P
 
 
 @register("volume")
-def volume_coords(camera: ThinLens, depth, db: SpreadletDatabase, motion=None) -> PsfCoords:
+def volume_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfCoords:
     """``volume``: the distance in metres between the camera and the point each pixel sees.
 
     The pixel's ray leaves the camera's centre of projection with the pinhole input's field of
-    view (focal length = the thin lens's image distance, so W pixels span its sensor); the
+    view (``camera.focal_px``: a pinhole's, or a thin lens's image distance on its sensor); the
     distance is Z sqrt(1 + (x^2 + y^2) / f_px^2) for a pixel (x, y) pixels from the image
     centre. The PSFs keep the pixel scale of the database's own pinhole (``focal_length_mm``,
     ``width_px``). No angle: symmetry ``rotation``. ``motion`` is unused.
@@ -78,7 +77,7 @@ def volume_coords(camera: ThinLens, depth, db: SpreadletDatabase, motion=None) -
     check_symmetries(db, ("rotation",))
     z = as_depth(depth)
     h, w = z.shape
-    f_px = camera.image_distance_m * w / (camera.sensor_width_mm / 1000.0)
+    f_px = camera.focal_px(w)
     x, y = pixel_offsets(h, w)
     distance = z * np.sqrt(1.0 + (x * x + y * y) / (f_px * f_px))
     coords = in_range("light distance", distance, db, 0, "m", lambda lo, hi: "rebuild the database with "

@@ -94,3 +94,32 @@ def test_bad_stylized_apertures_are_errors_naming_the_key():
         scene(dict(THIN, aperture={"shape": "image"}))
     with pytest.raises(UserError, match="unknown key"):
         scene(dict(THIN, aperture={"shape": "star", "blades": 6}))
+
+
+def test_a_medium_with_a_pinhole_plans_the_volume_model_and_volpath():
+    s = parse_scene({"scene": {"name": "f", "resolution": [16, 8]},
+                     "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **PINHOLE},
+                     "medium": {"sigma_t": 0.5, "albedo": [1, 1, 0.9], "g": 0.7},
+                     "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
+    plan = make_plan(s)
+    assert plan.psf_models == ("volume",) and [r.name for r in plan.references] == ["mitsuba_volpath"]
+    assert plan.effects["medium"].startswith("homogeneous (sigma_t 0.5 /m")
+    assert "participating medium" not in {x.name for x in plan.skipped}
+
+
+def test_a_medium_is_validated_and_a_thin_lens_cannot_carry_it():
+    import pytest
+
+    from lab.errors import UserError
+
+    for medium, match in (({"sigma_t": -1.0}, "sigma_t = -1.0"), ({"sigma_t": 1.0, "g": 1.0}, r"g = 1.0.*\(-1, 1\)"),
+                          ({"sigma_t": 1.0, "albedo": [1, 2, 0]}, "albedo"), ({"sigma": 1.0}, "unknown key")):
+        with pytest.raises(UserError, match=match):
+            parse_scene({"scene": {"name": "f", "resolution": [16, 8]},
+                         "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **PINHOLE}, "medium": medium,
+                         "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
+    thin = parse_scene({"scene": {"name": "f", "resolution": [16, 8]},
+                        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **THIN}, "medium": {"sigma_t": 1.0},
+                        "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
+    with pytest.raises(UserError, match=r"f.toml \[medium\]: a medium with a thin lens"):
+        make_plan(thin)

@@ -45,3 +45,17 @@ def test_a_stylized_camera_sets_the_shape_and_no_fringes():
     with pytest.raises(UserError, match=r"channel_scale = \[1.0, 0.9, 0.8\]"):
         model_table(scene(dict(THIN, aperture={"shape": "heart"}), {"stylized": {"channel_scale": [1.0, 0.9, 0.8]}}),
                     "stylized", _image(0.5))
+
+
+def test_a_fog_that_sees_the_sky_is_refused():
+    from lab.scene import parse_scene
+
+    s = parse_scene({"scene": {"name": "f", "resolution": [16, 8]},
+                     "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "model": "pinhole", "fov_deg": 40},
+                     "medium": {"sigma_t": 0.5}, "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]},
+                    "f.toml")
+    with pytest.raises(UserError, match=r"f.toml \[medium\].*128 pixel\(s\) see no surface"):
+        model_table(s, "volume", _image(float("inf")))
+    table = model_table(s, "volume", _image(2.0))
+    assert table["medium_density"] == 0.5 and table["width_px"] == 16
+    assert table["min_distance_m"] == 2.0 and 2.0 < table["max_distance_m"] <= 2.5

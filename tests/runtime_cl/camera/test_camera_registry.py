@@ -64,3 +64,12 @@ def test_the_camera_package_imports_no_lab_mitsuba_or_drjit():
             "print(sorted({m.split('.')[0] for m in sys.modules} & {'lab', 'mitsuba', 'drjit'}))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_every_camera_states_its_focal_length_in_pixels():
+    """Pixels per unit tangent: what places a pixel's ray (volume coordinates use it)."""
+    import math
+
+    assert Pinhole(90.0).focal_px(64) == pytest.approx(32.0)
+    thin = ThinLens(50.0, 2.0, 3.0, 36.0)
+    assert thin.focal_px(1000) == pytest.approx(1000 / (2 * math.tan(math.radians(thin.fov_x_deg()) / 2)))

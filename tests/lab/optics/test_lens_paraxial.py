@@ -54,7 +54,7 @@ def _refract(radius, n1, n2):
 def abcd(rows, nm, upto=None):
     """Ray-transfer matrix from z = 0 (the first vertex) through the rows (all of them, or those
     before ``upto``), ending on the last vertex plane (``upto``: that surface's plane)."""
-    m, n1, z = np.eye(2), 1.0, 0.0
+    m, n1 = np.eye(2), 1.0
     for i, (radius, thickness, glass, _) in enumerate(rows):
         if i == upto:
             return m

@@ -26,7 +26,7 @@ from ..errors import UserError
 from ..optics.iris import Iris
 from ..plan import Step
 from .base import Camera, register_camera
-from .shaped_aperture import ShapedAperture
+from .shaped_aperture import SHAPES, ShapedAperture
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
 
@@ -119,11 +119,10 @@ class ThinCamera(Camera):
 
     @classmethod
     def check_header(cls, data: dict, source: str) -> None:
-        """The iris (``"aperture"``), which :meth:`ThinLens.from_json` passes on unchecked."""
+        """The iris or the shape (``"aperture"``), which :meth:`ThinLens.from_json` passes on unchecked."""
         aperture = data.get("aperture")
         if isinstance(aperture, dict) and "shape" in aperture:
-            if aperture.get("shape") not in ("star", "heart", "image") or \
-                    set(aperture) - {"shape", "sha256"}:
+            if aperture.get("shape") not in SHAPES or set(aperture) - {"shape", "sha256"}:
                 raise UserError(f"{source} aperture = {aperture!r}: a stylized aperture is "
                                 "{\"shape\": \"star\" | \"heart\" | \"image\"} (an image with its \"sha256\")")
         elif "aperture" in data:

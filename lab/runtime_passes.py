@@ -47,9 +47,15 @@ def frame_of(image, source: str = "input", db=None, layered_input: bool = False)
 
 
 def camera_aperture(image, source: str = "input camera header", directions_m: int = 2, edges=None):
-    """The rectified polygon of the image camera's iris, or None for a round aperture."""
+    """The rectified polygon of the image camera's iris, or None for a round aperture; a stylized
+    shape (``{"shape": ...}``) is no polygon of the camera's: an error that says what draws it."""
     if "aperture" not in image.camera:
         return None
+    shape = image.camera["aperture"].get("shape") if isinstance(image.camera["aperture"], dict) else None
+    if shape is not None:
+        raise UserError(f"{source} aperture = {image.camera['aperture']!r}: the camera's stylized {shape} is "
+                        "drawn by its stylized database (--method spreadlets --db stylized.spdb); the polygon "
+                        "method draws an iris or a built-in shape (--aperture NAME)")
     from .config import from_table
     from .optics.iris import Iris
     from .polygon_aperture import iris_aperture

@@ -12,7 +12,6 @@ from typing import ClassVar
 import numpy as np
 
 from runtime_cl.coords.maps import needs_motion, psf_coords
-from runtime_cl.errors import InputError
 from runtime_cl.passes.registry import RuntimePass, register_pass
 from runtime_cl.spreadlets.renderer import Renderer
 from runtime_cl.spreadlets.splat import RUN_MAX
@@ -38,11 +37,7 @@ class SpreadletPass(RuntimePass):
 
     def prepare(self, frame):
         motion = frame.motion if needs_motion(self.db.model) else None
-        coords = psf_coords(self.camera, frame.depth, self.db, motion)
-        rgb = np.asarray(frame.rgb)
-        if rgb.ndim != 3:
-            raise InputError(f"rgb: shape {rgb.shape}, need (H, W, C)")
-        return rgb, coords
+        return np.asarray(frame.rgb), psf_coords(self.camera, frame.depth, self.db, motion)
 
     def __call__(self, prepared):
         rgb, coords = prepared

@@ -68,3 +68,11 @@ def test_frames_take_motion_and_layers_only_when_asked(image):
 
     with pytest.raises(UserError, match="no layerN"):
         frame_of(image, layered_input=True)
+
+
+def test_the_polygon_method_refuses_a_stylized_camera(image):
+    from lab.errors import UserError
+
+    heart = replace(image, camera=dict(CAMERA, aperture={"shape": "heart"}))
+    with pytest.raises(UserError, match=r"stylized heart is drawn by its stylized database"):
+        run_runtime(_plan(("polygon",)), heart, {}, runs=0, progress=False)

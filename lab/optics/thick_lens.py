@@ -160,6 +160,17 @@ class LensSystem:
     def __len__(self) -> int:
         return len(self.surfaces)
 
+    def reversed(self) -> "LensSystem":
+        """The same lens seen from the sensor: surfaces in reverse order, radii negated, each
+        followed by the medium that was in front of it. A point (x, y, z) of this lens is
+        (x, y, L - z) of the reversed one (L: the last vertex), so rays traced backward from
+        the sensor (a camera sensor's rays) use :meth:`trace` unchanged."""
+        rows = self.surfaces
+        glass = ["air"] + [s.glass for s in rows[:-1]]          # the medium in front of each row
+        thick = [0.0] + [s.thickness_mm for s in rows[:-1]]     # the gap in front of each row
+        return LensSystem([Surface(-s.radius_mm if s.radius_mm else 0.0, thick[i], glass[i], s.aperture_radius_mm)
+                           for i, s in reversed(list(enumerate(rows)))])
+
     def indices(self, wavelength_nm: float) -> tuple:
         """Refractive index behind each surface at ``wavelength_nm`` (tuple of floats)."""
         return tuple(float(get_glass(s.glass).index(wavelength_nm)) for s in self.surfaces)

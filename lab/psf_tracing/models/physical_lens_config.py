@@ -8,6 +8,7 @@ from functools import cached_property
 
 from lab.errors import UserError
 from lab.optics.lens_camera import FOCUS_MODES, ThickLensCamera
+from lab.optics.lenses import LENSES
 from lab.optics.thick_lens import LensSystem
 from lab.psf_tracing.models.common import check_common, check_number
 
@@ -16,10 +17,7 @@ __all__ = ["PhysicalLensConfig", "DEFAULT_SURFACES"]
 # A bi-convex N-BK7 singlet (R = +-50 mm, 8 mm thick, EFL 49.7 mm at 587.6 nm) behind an iris
 # 10 mm in front of it (f/2.8), with a hood opening 15 mm in front of the iris. Oblique beams are
 # clipped on one side by the hood and on the other by the lens rim: cat-eye bokeh off-axis.
-DEFAULT_SURFACES = ((math.inf, 15.0, "air", 11.5),
-                    (0.0, 10.0, "air", 8.9),
-                    (50.0, 8.0, "N-BK7", 12.0),
-                    (-50.0, 0.0, "air", 12.0))
+DEFAULT_SURFACES = LENSES["singlet"]
 
 
 @dataclass(frozen=True)

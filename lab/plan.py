@@ -98,10 +98,14 @@ def make_plan(scene) -> Plan:
     """
     rule = scene.camera.plan(scene)
     r = scene.render
+    effects = {"dof": rule["dof"], "motion": "none",
+               "medium": "none" if scene.medium is None else scene.medium.describe(), "chromatic": "none",
+               "aperture": rule["aperture"], **rule.get("effects", {})}
     skipped = list(rule["skipped"]) + [
         Step("motion blur", "the scene has no moving objects or camera motion"),
-        Step("chromatic aberration", "the camera has no glass (thin lens or pinhole)"),
     ]
+    if effects["chromatic"] == "none":
+        skipped.append(Step("chromatic aberration", "the camera has no glass (thin lens or pinhole)"))
     if scene.medium is None:
         skipped.append(Step("participating medium", "the scene has no medium"))
     if rule["aperture"] == "circle":
@@ -110,9 +114,6 @@ def make_plan(scene) -> Plan:
     if unused:
         skipped.append(Step(f"[psf.{', psf.'.join(unused)}]", "given in the scene but not needed by "
                                                              "this camera"))
-    effects = {"dof": rule["dof"], "motion": "none",
-               "medium": "none" if scene.medium is None else scene.medium.describe(), "chromatic": "none",
-               "aperture": rule["aperture"]}
     inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
                                        "centres, camera in the EXR header"),)
     layers = scene.input_layers()

@@ -16,7 +16,8 @@ __all__ = ["SCENE_SETTINGS", "model_table"]
 
 
 def _same(given, value) -> bool:
-    as_list = (lambda v: list(v) if isinstance(v, (list, tuple)) else v)
+    def as_list(v):
+        return [as_list(x) for x in v] if isinstance(v, (list, tuple)) else v
     return as_list(given) == as_list(value)
 
 
@@ -85,8 +86,39 @@ def _volume(table: dict, scene, image) -> dict:
     return table
 
 
+def _physical_lens(table: dict, scene, image) -> dict:
+    """The camera's lens, focus and wavelengths, its sensor with the input's width and aspect,
+    then the range of the input's depths rounded out (near down to 5 cm, far up to 0.5 m, so
+    small scene edits reuse the database) and the PSF size that holds the widest PSF."""
+    import numpy as np
+
+    from .cameras.thick import FOCUS, FOCUS_WAVELENGTH_NM, WAVELENGTHS_NM
+
+    cam = scene.camera
+    keys = dict(surfaces=cam.rows(), focus_distance_m=cam.focus_distance_m, focus=FOCUS,
+                wavelengths_nm=WAVELENGTHS_NM, focus_wavelength_nm=FOCUS_WAVELENGTH_NM, width_px=image.width,
+                sensor_width_mm=cam.sensor_width_mm, sensor_height_mm=cam.sensor_width_mm * image.height / image.width)
+    _from_camera(table, scene, "physical_lens", keys)
+    depth = np.asarray(image.depth, np.float64)
+    sky = int(np.count_nonzero(~np.isfinite(depth)))
+    if sky:
+        raise UserError(f"{scene.source} [camera]: {sky} pixel(s) see no surface (infinite depth), but a thick "
+                        "lens's PSFs are traced for finite depths: close the view with a wall or a floor")
+    z_min, z_max = float(depth.min()), float(depth.max())
+    near = math.floor(20.0 * z_min) / 20.0
+    table.setdefault("near_m", near if near > cam.optics().min_depth_m() else z_min)
+    table.setdefault("far_m", max(math.ceil(2.0 * z_max) / 2.0, table["near_m"] + 0.5))
+    if "psf_resolution" not in table:
+        from .psf_tracing.models import load_model
+
+        table["psf_resolution"] = load_model("physical_lens", table, f"{scene.source} [psf.physical_lens]"
+                                             ).required_resolution()
+    return table
+
+
 # Model name -> fill(table, scene, labelled input) -> table.
-SCENE_SETTINGS = {"simple_lens": _simple_lens, "stylized": _stylized, "volume": _volume}
+SCENE_SETTINGS = {"simple_lens": _simple_lens, "stylized": _stylized, "volume": _volume,
+                  "physical_lens": _physical_lens}
 
 
 def model_table(scene, model_name: str, image) -> dict:

@@ -130,7 +130,9 @@ class Camera(abc.ABC):
             ``dof`` and ``aperture`` (str: the effects), ``psf_models`` (tuple of str),
             ``references`` (tuple of :class:`lab.plan.Step`), ``runtime_passes`` (tuple of str
             labels), optionally ``pass_runs`` (label -> (registered runtime pass, options), for
-            labels that are not a pass's own name) and ``skipped`` (tuple of Step).
+            labels that are not a pass's own name), ``effects`` (effect -> description, merged
+            over the plan's defaults, e.g. ``{"chromatic": "sellmeier (...)"}``) and ``skipped``
+            (tuple of Step).
         """
 
     @abc.abstractmethod

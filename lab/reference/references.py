@@ -21,6 +21,16 @@ def _mitsuba(scene, image, progress: bool) -> np.ndarray:
     return render_reference(scene, progress=progress)
 
 
+def _thick_lens(scene, image, progress: bool) -> np.ndarray:
+    """A Mitsuba path trace through the thick lens (:mod:`lab.reference.thick_lens_sensor`), one
+    pass set per channel at the camera's wavelengths (:class:`lab.reference.chromatic.ChromaticJob`)."""
+    from ..cameras.thick import WAVELENGTHS_NM
+    from .chromatic import ChromaticJob
+
+    return ChromaticJob(scene, scene.render.reference_spp, "reference", "scene", wavelengths_nm=WAVELENGTHS_NM,
+                        desc=f"reference {scene.name}").run(progress)
+
+
 def _the_input(scene, image, progress: bool) -> np.ndarray:
     """A pinhole camera: its labelled-pixel input is the ground truth (every PSF is a delta)."""
     return image.rgb
@@ -28,7 +38,7 @@ def _the_input(scene, image, progress: bool) -> np.ndarray:
 
 # Step name -> renderer(scene, labelled input, progress) -> (H, W, 3) radiance.
 REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
-              "mitsuba_volpath": _mitsuba, "pinhole": _the_input}
+              "mitsuba_volpath": _mitsuba, "mitsuba_thick_lens": _thick_lens, "pinhole": _the_input}
 
 
 def render_reference_step(name: str, scene, image, progress: bool = True) -> np.ndarray:

@@ -2,9 +2,10 @@
 
 A database records what its PSFs were traced for, in the header's own terms (``params
 ["fingerprint"]``: header key -> value, e.g. ``{"aperture": None}`` for a round aperture,
-``{"focal_length_mm": 49.7, ...}`` for a traced thick lens). A render whose header says
-otherwise would draw the wrong bokeh without a word; :func:`check_header` refuses it. Numbers
-match within 1 % (a thin-lens header rounds a thick lens's focal length); anything else exactly.
+``{"surfaces": [[inf, 15.0, "air", 11.5], ...], "focal_length_mm": 49.7, ...}`` for a traced
+thick lens). A render whose header says otherwise would draw the wrong bokeh without a word;
+:func:`check_header` refuses it. Numbers match within 1 % (a thin-lens header rounds a thick
+lens's focal length), lists (a lens's surfaces) entry by entry; anything else exactly.
 A database without a fingerprint (written before it existed) is not checked.
 """
 from __future__ import annotations
@@ -25,6 +26,8 @@ def _same(traced, given) -> bool:
         return math.isclose(traced, given, rel_tol=REL, abs_tol=1e-9)
     if isinstance(traced, dict) and isinstance(given, dict):
         return traced.keys() == given.keys() and all(_same(traced[k], given[k]) for k in traced)
+    if isinstance(traced, (list, tuple)) and isinstance(given, (list, tuple)):
+        return len(traced) == len(given) and all(_same(a, b) for a, b in zip(traced, given))
     return traced == given
 
 

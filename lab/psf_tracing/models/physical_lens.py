@@ -63,10 +63,12 @@ class PhysicalLens(PSFModel):
                                       ("depth_m", "eccentricity_px"))
 
     def fingerprint(self) -> dict:
-        """The thin-lens figures of the traced lens a header must match: its paraxial focal length
-        at the focus wavelength, the focus distance and the sensor width."""
+        """What a ``"thick"`` header (:mod:`runtime_cl.camera.thick_lens`) must say of the traced
+        lens: its surfaces, paraxial focal length at the focus wavelength, focus distance and
+        rule, and sensor width."""
         c = self.config
-        return {"focal_length_mm": self.camera.lens.effective_focal_length_mm(c.focus_wavelength_nm),
+        return {"surfaces": [list(row) for row in c.surfaces], "focus": c.focus,
+                "focal_length_mm": self.camera.lens.effective_focal_length_mm(c.focus_wavelength_nm),
                 "focus_distance_m": c.focus_distance_m, "sensor_width_mm": c.sensor_width_mm}
 
     # --- per ray --------------------------------------------------------------------------------

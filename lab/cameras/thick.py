@@ -1,0 +1,218 @@
+"""The thick lens: ``[camera] model = "thick"``, a lens of spherical surfaces and Sellmeier glass.
+
+- Scene keys: ``lens = "singlet"`` (a built-in lens, :mod:`lab.optics.lenses`) or ``surfaces =
+  [[radius_mm, thickness_mm, glass, semi_aperture_mm], ...]`` (object side first, radius 0 =
+  the aperture stop, ``inf`` = a flat face; :class:`lab.optics.thick_lens.Surface`), and
+  ``focus_distance_m`` (metres from the entrance pupil); the sensor moves to the plane where a
+  point at that distance has the smallest spot (:class:`lab.optics.lens_camera.ThickLensCamera`).
+  ``position`` is the entrance pupil's centre: depths are measured from it, and the labelled
+  pixels are a pinhole's there with the paraxial chief-ray scale.
+- Runtime twin: :class:`runtime_cl.camera.thick_lens.ThickLens`.
+- Header: the surfaces, focus, sensor and the paraxial figures the runtime cannot derive
+  without the glass catalog (checked against the surfaces on read, :meth:`check_header`).
+- Plan: the ``physical_lens`` PSF model traced for this lens, focus and sensor, RGB at the
+  camera's wavelengths (650 / 510 / 475 nm, LES10), through the spreadlet passes, against a
+  Mitsuba path trace through the same lens (:mod:`lab.reference.thick_lens_sensor`), one pass
+  set per channel wavelength.
+
+Importing this module loads no Dr.Jit; building the lens (:meth:`ThickCamera.optics`) does.
+"""
+from __future__ import annotations
+
+import functools
+import json
+import math
+import typing
+from dataclasses import dataclass
+
+from runtime_cl.camera.thick_lens import ThickLens
+
+from ..errors import UserError
+from ..optics.glass import LINE_D_NM, get_glass
+from ..optics.lenses import LENSES, lens_names
+from ..plan import Step
+from .base import Camera, register_camera
+
+WAVELENGTHS_NM = (650.0, 510.0, 475.0)   # R, G, B (LES10)
+FOCUS_WAVELENGTH_NM = LINE_D_NM          # focusing and the pinhole scale
+FOCUS = "best"                           # the sensor at the smallest spot (lab.optics.lens_camera)
+# Keys of the other lens models, named in the error a thick lens gives for them.
+THIN_KEYS = ("focal_length_mm", "f_number", "aperture_radius_mm", "aperture", "fov_deg")
+ROW = "[radius_mm, thickness_mm, glass, semi_aperture_mm]"
+
+
+@functools.lru_cache(maxsize=32)
+def _focused(surfaces: tuple, focus_distance_m: float, sensor_width_mm: float, width_px: int):
+    """The lens focused at ``focus_distance_m`` (a :class:`ThickLensCamera`; cached, it is immutable)."""
+    from ..optics.lens_camera import ThickLensCamera
+    from ..optics.thick_lens import LensSystem
+
+    return ThickLensCamera.focused(LensSystem(surfaces), focus_distance_m, WAVELENGTHS_NM, FOCUS_WAVELENGTH_NM,
+                                   width_px, sensor_width_mm, FOCUS)
+
+
+def surface_rows(rows, key: str = "surfaces") -> tuple:
+    """``rows`` as a tuple of (float, float, str, float); UserError naming ``key`` and the row,
+    an unknown glass with the catalog."""
+    if not isinstance(rows, (list, tuple)) or not rows:
+        raise UserError(f"{key} = {rows!r}: give the lens as a list of {ROW} rows, object side first")
+    out = []
+    for i, row in enumerate(rows):
+        ok = isinstance(row, (list, tuple)) and len(row) == 4 and isinstance(row[2], str) and all(
+            isinstance(row[k], (int, float)) and not isinstance(row[k], bool) for k in (0, 1, 3))
+        if not ok:
+            raise UserError(f"{key}[{i}] = {row!r}: a surface is {ROW}, e.g. [50.0, 8.0, \"N-BK7\", 12.0]")
+        try:
+            get_glass(row[2])
+        except UserError as exc:
+            raise UserError(f"{key}[{i}]: {exc}") from None
+        out.append((float(row[0]), float(row[1]), row[2], float(row[3])))
+    return tuple(out)
+
+
+@register_camera("thick")
+@dataclass(frozen=True)
+class ThickCamera(Camera):
+    """A thick-lens camera (the look-at keys of :class:`lab.cameras.base.Camera` too).
+
+    Parameters
+    ----------
+    lens : str, optional
+        A built-in lens (:data:`lab.optics.lenses.LENSES`: ``"singlet"``, ``"achromat"``).
+    surfaces : list of [radius_mm, thickness_mm, glass, semi_aperture_mm], optional
+        Instead of ``lens``: the prescription, object side first; the last row's thickness is 0.
+    focus_distance_m : float
+        Distance in focus, metres from the entrance pupil (beyond the lens's front focal point).
+    """
+
+    runtime = ThickLens
+    lens: str | None = None
+    surfaces: typing.Any = None
+    focus_distance_m: float | None = None
+
+    @classmethod
+    def parse(cls, table: dict, where: str) -> "ThickCamera":
+        other = [k for k in THIN_KEYS if k in table]
+        if other:
+            raise UserError(f"{where}: {other}: a thick lens's focal length, f-number, field of view and aperture "
+                            "follow from its surfaces (the stop's semi-aperture); remove them, or set model = 'thin'")
+        return super().parse(table, where)
+
+    def check(self) -> None:
+        self.check_positive("focus_distance_m", "sensor_width_mm")
+        if (self.lens is None) == (self.surfaces is None):
+            raise UserError(f"give exactly one of lens (a built-in lens: {lens_names()}) and surfaces "
+                            f"(a list of {ROW} rows); lens = {self.lens!r}, surfaces = {self.surfaces!r}")
+        if self.lens is not None and self.lens not in LENSES:
+            raise UserError(f"lens = {self.lens!r} is not a built-in lens; use one of {lens_names()} or give "
+                            f"surfaces = [{ROW}, ...]")
+        if self.surfaces is not None:
+            object.__setattr__(self, "surfaces", surface_rows(self.surfaces))
+        if self.focus_distance_m is None:
+            raise UserError("a thick lens needs focus_distance_m (metres from its entrance pupil)")
+        self.optics()
+
+    def rows(self) -> tuple:
+        """The lens's surface rows: the built-in lens's or ``surfaces``."""
+        return LENSES[self.lens] if self.lens is not None else self.surfaces
+
+    def optics(self, width_px: int = 1024):
+        """The lens focused on ``focus_distance_m`` with this sensor, ``width_px`` pixels across
+        (:class:`lab.optics.lens_camera.ThickLensCamera`); UserError naming the key at fault."""
+        key = f"lens = {self.lens!r}" if self.lens is not None else "surfaces"
+        from ..optics.thick_lens import LensSystem
+
+        try:
+            efl = LensSystem(self.rows()).effective_focal_length_mm(FOCUS_WAVELENGTH_NM)
+        except UserError as exc:
+            raise UserError(f"{key}: {exc}") from None
+        if not 0 < efl < math.inf:
+            raise UserError(f"{key}: the lens's focal length is {efl:.4g} mm: it forms no real image, so no ray "
+                            "reaches a sensor; make it converging (e.g. a bi-convex element, radii [50, -50])")
+        try:
+            return _focused(self.rows(), self.focus_distance_m, self.sensor_width_mm, width_px)
+        except UserError as exc:
+            raise UserError(f"{key}, focus_distance_m = {self.focus_distance_m}: {exc}") from None
+
+    def check_sensor(self, width_px: int, height_px: int, where: str) -> None:
+        """UserError (naming ``where``) unless rays from every point of the sensor, up to the
+        corners of a ``width_px`` x ``height_px`` image, get through the lens."""
+        from ..optics.exit_pupil import ExitPupil
+
+        half = 0.5 * math.hypot(self.sensor_width_mm, self.sensor_width_mm * height_px / width_px)
+        key = f"lens = {self.lens!r}" if self.lens is not None else "surfaces"
+        try:
+            ExitPupil.build(self.optics(), FOCUS_WAVELENGTH_NM, half, n_radii=16, grid=96)
+        except UserError as exc:
+            raise UserError(f"{where} {key}: {exc}") from None
+
+    def stop_radius_mm(self) -> float:
+        """The aperture stop's semi-aperture."""
+        return next(row[3] for row in self.rows() if row[0] == 0.0)
+
+    def runtime_camera(self) -> ThickLens:
+        cam = self.optics()
+        return ThickLens(surfaces=self.rows(), focus_distance_m=self.focus_distance_m, focus=FOCUS,
+                         sensor_width_mm=self.sensor_width_mm,
+                         focal_length_mm=cam.lens.effective_focal_length_mm(FOCUS_WAVELENGTH_NM),
+                         chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm)
+
+    def camera_json(self) -> dict:
+        return {**self.runtime_camera().to_json(), "shutter": [0.0, 1.0]}
+
+    @classmethod
+    def check_header(cls, data: dict, source: str) -> None:
+        """The paraxial figures against the surfaces they were derived from (a header edited by
+        hand, or written for another glass catalog, would place the pixels wrongly)."""
+        rows = surface_rows(data["surfaces"], f"{source} surfaces")
+        if data["focus"] != FOCUS:
+            raise UserError(f"{source} focus = {data['focus']!r}: the lab's thick lens focuses {FOCUS!r}")
+        try:
+            camera = cls(model="thick", position=(0.0, 0.0, 0.0), look_at=(0.0, 0.0, 1.0), surfaces=rows,
+                         focus_distance_m=data["focus_distance_m"], sensor_width_mm=data["sensor_width_mm"])
+        except UserError as exc:
+            raise UserError(f"{source}: {exc}") from None
+        derived = camera.runtime_camera().to_json()
+        for key in ("focal_length_mm", "chief_scale_mm", "pupil_radius_mm"):
+            if not math.isclose(data[key], derived[key], rel_tol=1e-6):
+                raise UserError(f"{source} {key} = {data[key]!r}, but the header's surfaces give {derived[key]!r}; "
+                                "write the header from the scene's [camera] (splatlab reference) or fix the surfaces")
+
+    def plan(self, scene) -> dict:
+        if scene.medium is not None:
+            raise UserError(f"{scene.source} [medium]: a medium with a thick lens; no PSF model combines the lens "
+                            "and scattering (LSR18's Volume PSFs are a pinhole's): set [camera] model = \"pinhole\" "
+                            "for fog, or remove [medium]")
+        self.check_sensor(scene.width, scene.height, f"{scene.source} [camera]")
+        r = scene.render
+        nm = "/".join(f"{w:g}" for w in WAVELENGTHS_NM)
+        return {
+            "dof": self._dof(),
+            "aperture": f"round stop (semi-aperture {self.stop_radius_mm():g} mm), vignetted by the lens's "
+                        "openings (cat-eye off axis)",
+            "effects": {"chromatic": f"sellmeier ({nm} nm)"},
+            "psf_models": ("physical_lens",),
+            "references": (Step("mitsuba_thick_lens", f"Mitsuba path trace through the thick lens "
+                                                      f"(lab.reference.thick_lens_sensor), one pass set per "
+                                                      f"channel at {nm} nm, {r.reference_spp} spp each, max depth "
+                                                      f"{r.max_depth}"),),
+            "runtime_passes": ("spreadlets", "splat", "filter"),
+            "skipped": (Step("polygon passes", "MHU21's kernels are flat polygons; a thick lens's bokeh (cat-eye, "
+                                               "aberrations, colour) runs through its physical_lens database"),),
+        }
+
+    def _dof(self) -> str:
+        lens = self.runtime_camera()
+        name = f"{self.lens}, " if self.lens is not None else ""
+        n = lens.chief_scale_mm / (2.0 * lens.pupil_radius_mm)
+        return (f"thick ({name}{len(lens.surfaces)} surfaces, EFL {lens.focal_length_mm:.1f} mm, f/{n:.2g}, "
+                f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)")
+
+    def mitsuba_sensor(self, sensor: dict) -> dict:
+        """The Python sensor of :mod:`lab.reference.thick_lens_sensor` tracing this lens at the
+        focus wavelength (a chromatic reference sets ``wavelength_nm`` per pass), with the view,
+        film and sampler of ``sensor``."""
+        from ..reference.thick_lens_sensor import register
+
+        out = {k: v for k, v in sensor.items() if k not in ("fov", "fov_axis")}
+        return dict(out, type=register(), camera=json.dumps(self.camera_json()), wavelength_nm=FOCUS_WAVELENGTH_NM)

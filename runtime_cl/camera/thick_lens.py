@@ -1,0 +1,127 @@
+"""A thick lens in numpy: the runtime's mirror of the lab's ``model = "thick"``.
+
+The header (``"lens": "thick"``) carries the lens itself -- its surfaces, object side first, as
+rows ``[radius_mm, thickness_mm, glass, aperture_radius_mm]`` (radius 0: the aperture stop;
+``Infinity``: a flat face), the focus distance, the focusing rule and the sensor width -- so a
+file alone says which lens to render, and a ``physical_lens`` database's fingerprint is checked
+against it (:mod:`runtime_cl.psf.fingerprint`). The runtime has no glass catalog, so the lab
+also writes the paraxial figures it derives from the surfaces (at the d line):
+
+- ``focal_length_mm``: the effective focal length;
+- ``chief_scale_mm``: the labelled pixels' pinhole focal distance (the pinhole sits at the
+  entrance pupil; the paraxial chief ray of field tangent t lands at ``chief_scale_mm * t``);
+- ``pupil_radius_mm``: the entrance pupil's radius.
+
+Depths are measured from the entrance pupil. The paraxial circle of confusion about the focus
+distance F is exact for any lens of thin-lens form, with the entrance pupil radius a as the
+aperture and the chief-ray scale k as the image distance (the marginal ray of a point at z lands
+at k a (1/z - 1/F) from the chief ray, linear optics):
+
+    r(z) = a k W / sensor_width * (1/F - 1/z)
+
+The ``physical_lens`` PSFs hold the rest (aberrations, vignetting, colour); this radius only
+sizes things that need a number per depth.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+from runtime_cl.camera.common import depth_m, register_lens
+from runtime_cl.errors import InputError
+
+FOCUS_RULES = ("best", "paraxial")
+NUMBERS = ("focus_distance_m", "sensor_width_mm", "focal_length_mm", "chief_scale_mm", "pupil_radius_mm")
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value)
+
+
+def _check_rows(rows, where: str) -> tuple:
+    """The surfaces as a tuple of (float, float, str, float) rows; InputError naming ``where``."""
+    if not isinstance(rows, (list, tuple)) or not rows:
+        raise InputError(f"{where} = {rows!r}: give the lens as a list of [radius_mm, thickness_mm, glass, "
+                         "aperture_radius_mm] rows, object side first")
+    out = []
+    for i, row in enumerate(rows):
+        if not (isinstance(row, (list, tuple)) and len(row) == 4 and isinstance(row[2], str)
+                and all(_number(row[k]) for k in (0, 1, 3))):
+            raise InputError(f"{where}[{i}] = {row!r}: a surface is [radius_mm, thickness_mm, glass, "
+                             "aperture_radius_mm] (numbers, a glass name)")
+        out.append((float(row[0]), float(row[1]), row[2], float(row[3])))
+    return tuple(out)
+
+
+@register_lens("thick")
+@dataclass(frozen=True)
+class ThickLens:
+    """A thick lens camera, units as in the ``splatlab.camera`` header (``"lens": "thick"``).
+
+    Parameters
+    ----------
+    surfaces : tuple of (radius_mm, thickness_mm, glass, aperture_radius_mm)
+        The lens, object side first (as :class:`lab.optics.thick_lens.Surface`).
+    focus_distance_m : float
+        Distance in focus, metres from the entrance pupil.
+    focus : {"best", "paraxial"}
+        How the sensor was placed: the smallest spot of the focus distance, or its paraxial image.
+    sensor_width_mm : float
+        Sensor width; the image width spans it.
+    focal_length_mm, chief_scale_mm, pupil_radius_mm : float
+        Paraxial figures of the surfaces (the module docstring); all > 0.
+    """
+
+    lens: ClassVar[str]
+    surfaces: tuple
+    focus_distance_m: float
+    focus: str
+    sensor_width_mm: float
+    focal_length_mm: float
+    chief_scale_mm: float
+    pupil_radius_mm: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "surfaces", _check_rows(self.surfaces, "camera surfaces"))
+        for name in NUMBERS:
+            value = getattr(self, name)
+            if not (_number(value) and math.isfinite(value) and value > 0):
+                raise InputError(f"camera {name} = {value!r}: must be a finite number > 0")
+        if self.focus not in FOCUS_RULES:
+            raise InputError(f"camera focus = {self.focus!r}: use one of {list(FOCUS_RULES)}")
+
+    def fov_x_deg(self) -> float:
+        """Horizontal field of view of the labelled pixels' pinhole (at the entrance pupil)."""
+        return math.degrees(2.0 * math.atan(self.sensor_width_mm / (2.0 * self.chief_scale_mm)))
+
+    def focal_px(self, width_px: int) -> float:
+        """The pinhole's focal distance in pixels of an image ``width_px`` wide."""
+        return self.chief_scale_mm * width_px / self.sensor_width_mm
+
+    def coc_radius_px(self, z_m, width_px: int):
+        """Signed paraxial circle-of-confusion radius in pixels at depths ``z_m`` (metres from the
+        entrance pupil; ``inf`` allowed), positive behind the focus distance."""
+        scale = self.pupil_radius_mm * self.chief_scale_mm / 1000.0 * width_px / self.sensor_width_mm
+        return scale * (1.0 / self.focus_distance_m - 1.0 / depth_m(z_m))
+
+    def to_json(self) -> dict:
+        return {"lens": self.lens, "surfaces": [list(row) for row in self.surfaces],
+                **{name: getattr(self, name) for name in NUMBERS}, "focus": self.focus}
+
+    @classmethod
+    def from_json(cls, data: dict, source: str = "camera") -> "ThickLens":
+        """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
+        if data.get("lens") != cls.lens:
+            raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
+        known = {"lens", "surfaces", "focus", "shutter", *NUMBERS}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")
+        missing = sorted(known - {"shutter"} - set(data))
+        if missing:
+            raise InputError(f"{source}: missing key(s) {missing} for a thick lens")
+        try:
+            return cls(**{k: v for k, v in data.items() if k not in ("lens", "shutter")})
+        except InputError as exc:
+            raise InputError(f"{source}: {exc}") from None

@@ -15,9 +15,11 @@ PLACE = {"position": [0, 0, 0], "look_at": [0, 0, 1]}
 EXAMPLES = {
     "thin": {"model": "thin", "focal_length_mm": 50, "f_number": 2.0, "focus_distance_m": 2.5, **PLACE},
     "pinhole": {"model": "pinhole", "fov_deg": 40, **PLACE},
+    "thick": {"model": "thick", "lens": "singlet", "focus_distance_m": 2.0, **PLACE},
 }
 IRIS = {**EXAMPLES["thin"], "aperture": {"blades": 5, "rotation_deg": 10}}
 PLAN_KEYS = {"dof", "aperture", "psf_models", "references", "runtime_passes", "skipped"}
+OPTIONAL_PLAN_KEYS = {"pass_runs", "effects"}
 
 
 def camera(table):
@@ -25,7 +27,7 @@ def camera(table):
 
 
 def test_every_model_has_an_example_here():
-    assert sorted(EXAMPLES) == camera_names() == ["pinhole", "thin"]
+    assert sorted(EXAMPLES) == camera_names() == ["pinhole", "thick", "thin"]
 
 
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
@@ -56,7 +58,7 @@ def _db():
     return disc_database(4.0, samples=4)
 
 
-@pytest.mark.parametrize("table", [EXAMPLES["thin"], IRIS, EXAMPLES["pinhole"]])
+@pytest.mark.parametrize("table", [EXAMPLES["thin"], IRIS, EXAMPLES["pinhole"], EXAMPLES["thick"]])
 def test_every_plan_rule_gives_the_plan_fields(table):
     from lab.plan import make_plan
     from lab.scene import parse_scene
@@ -66,7 +68,7 @@ def test_every_plan_rule_gives_the_plan_fields(table):
     from runtime_cl.passes import get_pass
 
     rule = scene.camera.plan(scene)
-    assert PLAN_KEYS <= set(rule) <= PLAN_KEYS | {"pass_runs"}
+    assert PLAN_KEYS <= set(rule) <= PLAN_KEYS | OPTIONAL_PLAN_KEYS
     plan = make_plan(scene)
     assert plan.runtime_passes == rule["runtime_passes"]
     for label in plan.runtime_passes:          # every label runs a registered pass with its options
@@ -94,14 +96,15 @@ def test_scene_to_header_to_runtime_keeps_the_coc():
 
 
 def test_unknown_model_and_lens_list_the_choices():
-    with pytest.raises(UserError, match=r"c.toml \[camera\]: model = 'thick' is not a camera model; "
-                                        r"use one of \['pinhole', 'thin'\]"):
-        camera({**EXAMPLES["thin"], "model": "thick"})
-    with pytest.raises(UserError, match=r"camera model 'thick' is unknown; known camera models are "
-                                        r"\['pinhole', 'thin'\]"):
-        get_camera("thick")
-    with pytest.raises(UserError, match=r"a.exr: lens = 'thick' is not known; use one of \['pinhole', 'thin'\]"):
-        validate_camera({"lens": "thick"}, "a.exr")
+    with pytest.raises(UserError, match=r"c.toml \[camera\]: model = 'fisheye' is not a camera model; "
+                                        r"use one of \['pinhole', 'thick', 'thin'\]"):
+        camera({**EXAMPLES["thin"], "model": "fisheye"})
+    with pytest.raises(UserError, match=r"camera model 'fisheye' is unknown; known camera models are "
+                                        r"\['pinhole', 'thick', 'thin'\]"):
+        get_camera("fisheye")
+    with pytest.raises(UserError, match=r"a.exr: lens = 'fisheye' is not known; use one of "
+                                        r"\['pinhole', 'thick', 'thin'\]"):
+        validate_camera({"lens": "fisheye"}, "a.exr")
     with pytest.raises(UserError, match=r"missing key\(s\) \['model'\]"):
         camera(PLACE)
 

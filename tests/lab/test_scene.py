@@ -139,7 +139,7 @@ def test_unknown_keys_name_file_table_and_key(tmp_path, old, new, needles):
     ("focus_distance_m = 2.5", "focus_distance_m = 0.04", ["focus_distance_m = 0.04", "focal length", "> 0.05 m"]),
     ("resolution = [32, 24]", "resolution = [0, 24]", ["[scene]", "resolution", "> 0"]),
     ("material = \"floor\"", "material = \"flor\"", ["#1", "'flor'", "[materials.flor]", "floor"]),
-    ('model = "thin"', 'model = "thick"', ["model = 'thick'", "pinhole"]),
+    ('model = "thin"', 'model = "fisheye"', ["model = 'fisheye'", "pinhole", "thick"]),
     ("look_at = [0, 1, 3]", "look_at = [0, 1, 0]", ["look_at", "equals position"]),
     ("look_at = [0, 1, 3]", "look_at = [0, 5, 0]", ["up", "parallel"]),
     ("[render]", "[render]\nmax_depth = 0", ["max_depth = 0", ">= 1"]),

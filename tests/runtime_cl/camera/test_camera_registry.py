@@ -16,7 +16,7 @@ THIN = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 2.0, "focus_distanc
 
 
 def test_headers_build_their_registered_camera():
-    assert lens_names() == ["pinhole", "thin"]
+    assert lens_names() == ["pinhole", "thick", "thin"]
     assert from_header(THIN, "a.exr") == ThinLens.from_json(THIN, "a.exr") == ThinLens(50.0, 2.0, 3.0, 36.0)
     iris = from_header({**THIN, "aperture": {"blades": 6}})
     assert iris == ThinLens(50.0, 2.0, 3.0, 36.0)                 # the iris does not change the CoC
@@ -26,8 +26,8 @@ def test_headers_build_their_registered_camera():
 
 
 @pytest.mark.parametrize("data,needles", [
-    ({"lens": "thick"}, ["a.exr header", "lens = 'thick' is not known", "['pinhole', 'thin']"]),
-    ({"focal_length_mm": 50}, ["a.exr header", "lens = None is not known", "['pinhole', 'thin']"]),
+    ({"lens": "fisheye"}, ["a.exr header", "lens = 'fisheye' is not known", "['pinhole', 'thick', 'thin']"]),
+    ({"focal_length_mm": 50}, ["a.exr header", "lens = None is not known", "['pinhole', 'thick', 'thin']"]),
     ({"lens": ["thin"]}, ["a.exr header", "lens = ['thin'] is not known"]),
     ([1, 2], ["a.exr header", "must be a JSON object", "[1, 2]"]),
     ({"lens": "pinhole", "fov_x_deg": 180}, ["a.exr header", "fov_x_deg = 180", "(0, 180)"]),

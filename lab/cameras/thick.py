@@ -25,7 +25,8 @@ import math
 import typing
 from dataclasses import dataclass
 
-from runtime_cl.camera.thick_lens import ThickLens
+from runtime_cl.camera.thick_lens import ROW, ThickLens
+from runtime_cl.camera.thick_lens import surface_rows as runtime_surface_rows
 
 from ..errors import UserError
 from ..optics.glass import LINE_D_NM, get_glass
@@ -38,7 +39,6 @@ FOCUS_WAVELENGTH_NM = LINE_D_NM          # focusing and the pinhole scale
 FOCUS = "best"                           # the sensor at the smallest spot (lab.optics.lens_camera)
 # Keys of the other lens models, named in the error a thick lens gives for them.
 THIN_KEYS = ("focal_length_mm", "f_number", "aperture_radius_mm", "aperture", "fov_deg")
-ROW = "[radius_mm, thickness_mm, glass, semi_aperture_mm]"
 
 
 @functools.lru_cache(maxsize=32)
@@ -52,22 +52,15 @@ def _focused(surfaces: tuple, focus_distance_m: float, sensor_width_mm: float, w
 
 
 def surface_rows(rows, key: str = "surfaces") -> tuple:
-    """``rows`` as a tuple of (float, float, str, float); UserError naming ``key`` and the row,
-    an unknown glass with the catalog."""
-    if not isinstance(rows, (list, tuple)) or not rows:
-        raise UserError(f"{key} = {rows!r}: give the lens as a list of {ROW} rows, object side first")
-    out = []
-    for i, row in enumerate(rows):
-        ok = isinstance(row, (list, tuple)) and len(row) == 4 and isinstance(row[2], str) and all(
-            isinstance(row[k], (int, float)) and not isinstance(row[k], bool) for k in (0, 1, 3))
-        if not ok:
-            raise UserError(f"{key}[{i}] = {row!r}: a surface is {ROW}, e.g. [50.0, 8.0, \"N-BK7\", 12.0]")
+    """``rows`` as a tuple of (float, float, str, float) (:func:`runtime_cl.camera.thick_lens.
+    surface_rows`) whose glasses are in the catalog; UserError naming ``key`` and the row."""
+    out = runtime_surface_rows(rows, key)
+    for i, row in enumerate(out):
         try:
             get_glass(row[2])
         except UserError as exc:
             raise UserError(f"{key}[{i}]: {exc}") from None
-        out.append((float(row[0]), float(row[1]), row[2], float(row[3])))
-    return tuple(out)
+    return out
 
 
 @register_camera("thick")
@@ -116,12 +109,16 @@ class ThickCamera(Camera):
         """The lens's surface rows: the built-in lens's or ``surfaces``."""
         return LENSES[self.lens] if self.lens is not None else self.surfaces
 
+    def _key(self) -> str:
+        """The key that gave the lens, for messages."""
+        return f"lens = {self.lens!r}" if self.lens is not None else "surfaces"
+
     def optics(self, width_px: int = 1024):
         """The lens focused on ``focus_distance_m`` with this sensor, ``width_px`` pixels across
         (:class:`lab.optics.lens_camera.ThickLensCamera`); UserError naming the key at fault."""
-        key = f"lens = {self.lens!r}" if self.lens is not None else "surfaces"
         from ..optics.thick_lens import LensSystem
 
+        key = self._key()
         try:
             efl = LensSystem(self.rows()).effective_focal_length_mm(FOCUS_WAVELENGTH_NM)
         except UserError as exc:
@@ -140,11 +137,10 @@ class ThickCamera(Camera):
         from ..optics.exit_pupil import ExitPupil
 
         half = 0.5 * math.hypot(self.sensor_width_mm, self.sensor_width_mm * height_px / width_px)
-        key = f"lens = {self.lens!r}" if self.lens is not None else "surfaces"
         try:
             ExitPupil.build(self.optics(), FOCUS_WAVELENGTH_NM, half, n_radii=16, grid=96)
         except UserError as exc:
-            raise UserError(f"{where} {key}: {exc}") from None
+            raise UserError(f"{where} {self._key()}: {exc}") from None
 
     def stop_radius_mm(self) -> float:
         """The aperture stop's semi-aperture."""

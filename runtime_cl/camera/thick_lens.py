@@ -1,7 +1,7 @@
 """A thick lens in numpy: the runtime's mirror of the lab's ``model = "thick"``.
 
 The header (``"lens": "thick"``) carries the lens itself -- its surfaces, object side first, as
-rows ``[radius_mm, thickness_mm, glass, aperture_radius_mm]`` (radius 0: the aperture stop;
+rows ``[radius_mm, thickness_mm, glass, semi_aperture_mm]`` (radius 0: the aperture stop;
 ``Infinity``: a flat face), the focus distance, the focusing rule and the sensor width -- so a
 file alone says which lens to render, and a ``physical_lens`` database's fingerprint is checked
 against it (:mod:`runtime_cl.psf.fingerprint`). The runtime has no glass catalog, so the lab
@@ -32,6 +32,7 @@ from runtime_cl.camera.common import depth_m, register_lens
 from runtime_cl.errors import InputError
 
 FOCUS_RULES = ("best", "paraxial")
+ROW = "[radius_mm, thickness_mm, glass, semi_aperture_mm]"
 NUMBERS = ("focus_distance_m", "sensor_width_mm", "focal_length_mm", "chief_scale_mm", "pupil_radius_mm")
 
 
@@ -39,17 +40,15 @@ def _number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value)
 
 
-def _check_rows(rows, where: str) -> tuple:
-    """The surfaces as a tuple of (float, float, str, float) rows; InputError naming ``where``."""
+def surface_rows(rows, where: str = "surfaces") -> tuple:
+    """``rows`` as a tuple of (float, float, str, float); InputError naming ``where`` and the row."""
     if not isinstance(rows, (list, tuple)) or not rows:
-        raise InputError(f"{where} = {rows!r}: give the lens as a list of [radius_mm, thickness_mm, glass, "
-                         "aperture_radius_mm] rows, object side first")
+        raise InputError(f"{where} = {rows!r}: give the lens as a list of {ROW} rows, object side first")
     out = []
     for i, row in enumerate(rows):
         if not (isinstance(row, (list, tuple)) and len(row) == 4 and isinstance(row[2], str)
                 and all(_number(row[k]) for k in (0, 1, 3))):
-            raise InputError(f"{where}[{i}] = {row!r}: a surface is [radius_mm, thickness_mm, glass, "
-                             "aperture_radius_mm] (numbers, a glass name)")
+            raise InputError(f"{where}[{i}] = {row!r}: a surface is {ROW}, e.g. [50.0, 8.0, \"N-BK7\", 12.0]")
         out.append((float(row[0]), float(row[1]), row[2], float(row[3])))
     return tuple(out)
 
@@ -61,7 +60,7 @@ class ThickLens:
 
     Parameters
     ----------
-    surfaces : tuple of (radius_mm, thickness_mm, glass, aperture_radius_mm)
+    surfaces : tuple of (radius_mm, thickness_mm, glass, semi_aperture_mm)
         The lens, object side first (as :class:`lab.optics.thick_lens.Surface`).
     focus_distance_m : float
         Distance in focus, metres from the entrance pupil.
@@ -83,7 +82,7 @@ class ThickLens:
     pupil_radius_mm: float
 
     def __post_init__(self):
-        object.__setattr__(self, "surfaces", _check_rows(self.surfaces, "camera surfaces"))
+        object.__setattr__(self, "surfaces", surface_rows(self.surfaces, "camera surfaces"))
         for name in NUMBERS:
             value = getattr(self, name)
             if not (_number(value) and math.isfinite(value) and value > 0):

@@ -1,23 +1,29 @@
 """A thick lens from scene file to report: ``scenes/tiny_rain.toml`` (drops through a singlet, RGB)."""
+import dataclasses
 import json
+from pathlib import Path
 
 import pytest
 
+from lab.cli import main
+from lab.exr_io import read_labelled, write_labelled
 from lab.paths import SCENES
 from lab.pipeline import run_report
+from lab.scene import load_scene
 
 
 @pytest.fixture(scope="module")
 def rain_report(tmp_path_factory):
     mp = pytest.MonkeyPatch()
-    mp.setenv("SPLATLAB_CACHE", str(tmp_path_factory.mktemp("cache")))
+    cache = tmp_path_factory.mktemp("cache")
+    mp.setenv("SPLATLAB_CACHE", str(cache))
     out = tmp_path_factory.mktemp("rain")
-    yield run_report(SCENES / "tiny_rain.toml", out, progress=False), out
+    yield run_report(SCENES / "tiny_rain.toml", out, progress=False), out, cache
     mp.undo()
 
 
 def test_the_thick_lens_runs_the_physical_lens_against_its_own_reference(rain_report):
-    report, out = rain_report
+    report, out, _ = rain_report
     plan = report["plan"]
     assert plan["psf_models"] == ["physical_lens"] and plan["effects"]["chromatic"] == "sellmeier (650/510/475 nm)"
     assert plan["effects"]["dof"].startswith("thick (4 surfaces, EFL 99.1 mm, f/2.5, focus 1.5 m")
@@ -37,3 +43,20 @@ def test_the_thick_lens_runs_the_physical_lens_against_its_own_reference(rain_re
     assert methods["spreadlets"]["ssim"] > 0.78
     saved = json.loads((out / "report.json").read_text())
     assert saved["methods"]["spreadlets"]["ssim"] == methods["spreadlets"]["ssim"]
+
+
+def test_the_database_renders_its_own_lens_and_refuses_another(rain_report, tmp_path, capsys):
+    report, _, cache = rain_report
+    db = report["database"]["physical_lens"]["path"]
+    (source,) = sorted(Path(cache, "renders").glob("*/input.exr"))
+    assert main(["render", str(source), "--db", db, "--method", "spreadlets", "--out", str(tmp_path / "ok.exr")]) == 0
+    capsys.readouterr()
+    other = load_scene(SCENES / "rain.toml").camera.camera_json()           # the built-in singlet
+    image = read_labelled(source)
+    write_labelled(tmp_path / "other.exr", dataclasses.replace(image, camera=other))
+    code = main(["render", str(tmp_path / "other.exr"), "--db", db, "--method", "spreadlets",
+                 "--out", str(tmp_path / "no.exr")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert "other.exr camera: surfaces = [[inf, 15.0" in err and "traced for surfaces = [[inf, 30.0" in err
+    assert not (tmp_path / "no.exr").exists()

@@ -58,5 +58,5 @@ def test_the_database_renders_its_own_lens_and_refuses_another(rain_report, tmp_
                  "--out", str(tmp_path / "no.exr")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1, err
-    assert "other.exr camera: surfaces = [[inf, 15.0" in err and "traced for surfaces = [[inf, 30.0" in err
+    assert "other.exr camera: focal_length_mm = 49.7" in err and "traced for focal_length_mm = 99.1" in err
     assert not (tmp_path / "no.exr").exists()

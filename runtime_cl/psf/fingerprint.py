@@ -4,8 +4,8 @@ A database records what its PSFs were traced for, in the header's own terms (``p
 ["fingerprint"]``: header key -> value, e.g. ``{"aperture": None}`` for a round aperture,
 ``{"surfaces": [[inf, 15.0, "air", 11.5], ...], "focal_length_mm": 49.7, ...}`` for a traced
 thick lens). A render whose header says otherwise would draw the wrong bokeh without a word;
-:func:`check_header` refuses it. Numbers match within 1 % (a thin-lens header rounds a thick
-lens's focal length), lists (a lens's surfaces) entry by entry; anything else exactly.
+:func:`check_header` refuses it. Numbers match within 1 %, lists (a lens's surfaces) entry by
+entry; anything else exactly.
 A database without a fingerprint (written before it existed) is not checked.
 """
 from __future__ import annotations

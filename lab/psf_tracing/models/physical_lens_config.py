@@ -14,9 +14,8 @@ from lab.psf_tracing.models.common import check_common, check_number
 
 __all__ = ["PhysicalLensConfig", "DEFAULT_SURFACES"]
 
-# A bi-convex N-BK7 singlet (R = +-50 mm, 8 mm thick, EFL 49.7 mm at 587.6 nm) behind an iris
-# 10 mm in front of it (f/2.8), with a hood opening 15 mm in front of the iris. Oblique beams are
-# clipped on one side by the hood and on the other by the lens rim: cat-eye bokeh off-axis.
+# The built-in singlet (lab.optics.lenses): bi-convex N-BK7, EFL 49.7 mm, f/2.8, a hood in front of
+# the iris (cat-eye bokeh off axis).
 DEFAULT_SURFACES = LENSES["singlet"]
 
 

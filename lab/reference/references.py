@@ -21,6 +21,18 @@ def _mitsuba(scene, image, progress: bool) -> np.ndarray:
     return render_reference(scene, progress=progress)
 
 
+def _motion(scene, image, progress: bool) -> np.ndarray:
+    """Sub-frames over the shutter through the scene camera's own sensor, one per pixel of the
+    input's longest motion vector (:mod:`lab.reference.motion`)."""
+    from ..runtime_passes import read_motion
+    from .motion import MotionJob, subframes_for
+
+    flow = read_motion(image, scene.source, "combined")
+    job = MotionJob(scene, scene.render.reference_spp, "reference", "scene", desc=f"reference {scene.name}",
+                    subframes=subframes_for(float(np.hypot(flow[..., 0], flow[..., 1]).max())))
+    return job.run(progress)
+
+
 def _the_input(scene, image, progress: bool) -> np.ndarray:
     """A pinhole camera: its labelled-pixel input is the ground truth (every PSF is a delta)."""
     return image.rgb
@@ -28,7 +40,7 @@ def _the_input(scene, image, progress: bool) -> np.ndarray:
 
 # Step name -> renderer(scene, labelled input, progress) -> (H, W, 3) radiance.
 REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
-              "mitsuba_volpath": _mitsuba, "pinhole": _the_input}
+              "mitsuba_volpath": _mitsuba, "mitsuba_motion": _motion, "pinhole": _the_input}
 
 
 def render_reference_step(name: str, scene, image, progress: bool = True) -> np.ndarray:

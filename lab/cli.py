@@ -70,7 +70,9 @@ DESCRIPTIONS = {
               "database's symmetries say (motion direction, side of the focal plane, azimuth).",
     "report": "The whole job for one scene: plan, labelled-pixel input and Mitsuba reference, PSF "
               "databases, every runtime method, then SSIM/PSNR against the reference and timings in "
-              "reports/<scene>/index.html and report.json. Every stage is cached by content hash.",
+              "reports/<scene>/index.html and report.json. Every stage is cached by content hash. "
+              "Several scenes: each scene's report, then LSR18 Table 2 over them (Filter / Splat / "
+              "spreadlets: time and SSIM, the paper's figures beside ours) in reports/table2/.",
     "demo": "Run `splatlab report` on the embedded default scene scenes/demo.toml (1024x1024, 85 mm lens "
             "with large bokeh) and print where the report is. This is what `make demo` runs.",
     "bench": "Benchmarks written as JSON under reports/bench/ (with machine and versions). Methods are "
@@ -141,10 +143,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="output EXR (R, G, B)")
     p.add_argument("--camera", type=Path, help="camera TOML ([camera] table) overriding the EXR header")
 
-    p = sub.add_parser("report", description=DESCRIPTIONS["report"], help="the whole job for a scene: precompute, references, methods, report")
-    _add_scene(p)
-    p.add_argument("--out-dir", type=Path, help="report directory (default reports/<scene name>/)")
-    p.add_argument("--baseline", type=Path, help="report.json to check for regressions (exit 1 if any)")
+    p = sub.add_parser("report", description=DESCRIPTIONS["report"], help="the whole job for scenes: precompute, references, methods, report")
+    p.add_argument("scene", type=Path, nargs="+", help="scene file(s) (TOML), e.g. scenes/whirl.toml scenes/gears.toml")
+    p.add_argument("--out-dir", type=Path, help="report directory (default reports/<scene name>/); with several "
+                   "scenes, the Table 2 page (default reports/table2/) with each scene's report in <dir>/<scene>/")
+    p.add_argument("--baseline", type=Path, help="report.json to check for regressions (exit 1 if any; one scene)")
+    p.add_argument("--noise-floor", action="store_true", help="render a second reference with an independent "
+                   "seed and report how far the two agree (the SSIM no method can beat)")
 
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")
 

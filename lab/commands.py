@@ -169,26 +169,49 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline) -> int:
+def _report(scene_path, out_dir, baseline, noise: bool = False) -> tuple:
     from .pipeline import run_report
 
-    report = run_report(scene_path, out_dir, baseline)
+    report = run_report(scene_path, out_dir, baseline, noise=noise)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
         print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
+    floor = report["reference"].get("noise_floor")
+    if floor:
+        print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")
     print(f"report: {out.resolve() / 'index.html'}\n        {out.resolve() / 'report.json'}")
     if report.get("regressions"):
         _say("regressions against the baseline:\n  " + "\n  ".join(report["regressions"]))
-        return 1
-    return 0
+        return 1, report, out
+    return 0, report, out
 
 
 def cmd_report(args) -> int:
-    return _report(args.scene, args.out_dir, args.baseline)
+    """One scene: its report; several: each scene's report, then LSR18 Table 2 over them."""
+    scenes = list(args.scene)
+    if len(scenes) == 1:
+        return _report(scenes[0], args.out_dir, args.baseline, args.noise_floor)[0]
+    if args.baseline is not None:
+        raise UserError(f"--baseline {args.baseline}: a baseline is one scene's report.json; check one "
+                        "scene at a time")
+    from .pipeline import load_scene_and_plan
+    from .report.table2 import write_summary
+
+    names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
+    if len(set(names)) < len(names):
+        raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
+    root = Path(args.out_dir) if args.out_dir else None
+    codes, reports, dirs = [], [], []
+    for path, name in zip(scenes, names):
+        code, report, out = _report(path, root / name if root else None, None, args.noise_floor)
+        codes.append(code), reports.append(report), dirs.append(out)
+    page = write_summary(reports, dirs, root or REPORTS / "table2")
+    print(f"LSR18 Table 2 over {len(reports)} scenes: {page.resolve()}")
+    return max(codes)
 
 
 def cmd_demo(args) -> int:
-    return _report(DEMO_SCENE, None, None)
+    return _report(DEMO_SCENE, None, None)[0]
 
 
 def cmd_bench(args) -> int:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -34,8 +35,32 @@ def render_key(scene: Scene, packages=None) -> str:
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 
-def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tuple:
-    """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info)."""
+NOISE_SEED_OFFSET = 1_000_003   # the second reference's seed: seed + this (mod 2^31)
+
+
+def noise_floor(scene: Scene, plan: Plan, image, reference, folder: Path, progress: bool = True) -> dict:
+    """A second reference with an independent seed (cached as ``reference_b.exr``) and how far
+    the two agree: the SSIM and PSNR a method cannot beat (the reference's own Monte Carlo noise)."""
+    from .exr_io import read_rgb, write_rgb
+    from .reference.references import render_reference_step
+    from .report.metrics import psnr, ssim
+
+    path = folder / "reference_b.exr"
+    if path.exists():
+        second = read_rgb(path)
+    else:
+        other = replace(scene, render=replace(scene.render, seed=(scene.render.seed + NOISE_SEED_OFFSET) % 2**31))
+        second = render_reference_step(plan.references[0].name, other, image, progress)
+        write_rgb(path, second)
+    return {"ssim": ssim(second, reference), "psnr": psnr(second, reference),
+            "seeds": [scene.render.seed, (scene.render.seed + NOISE_SEED_OFFSET) % 2**31]}
+
+
+def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True, second: bool = False) -> tuple:
+    """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info).
+
+    ``second``: also render a reference with an independent seed and put their agreement in
+    ``info["noise_floor"]`` (:func:`noise_floor`)."""
     from .reference.labelled import render_labelled
     from .reference.references import render_reference_step
 
@@ -61,6 +86,8 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
         info["reference_s"] = round(time.perf_counter() - t, 2)
     info.update(reference_spp=scene.render.reference_spp, input_spp=scene.render.input_spp,
                 steps=[s.name for s in plan.references])
+    if second and plan.references[0].name != "pinhole":
+        info["noise_floor"] = noise_floor(scene, plan, image, reference, folder, progress)
     return image, reference, info
 
 
@@ -86,8 +113,9 @@ def default_out_dir(scene: Scene) -> Path:
     return REPORTS / scene.name
 
 
-def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -> dict:
-    """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict."""
+def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True, noise: bool = False) -> dict:
+    """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict.
+    ``noise``: measure the reference's noise floor (:func:`noise_floor`)."""
     from .report.build import assemble_report
 
     scene, plan = load_scene_and_plan(scene_path)
@@ -98,7 +126,7 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -
 
         baseline_report = load_report(baseline)  # fail early, before hours of work
     t0 = time.perf_counter()
-    image, reference, ref_info = inputs_and_reference(scene, plan, progress)
+    image, reference, ref_info = inputs_and_reference(scene, plan, progress, second=noise)
     databases = build_databases(scene, plan, image, progress=progress)
     from .runtime_passes import run_runtime
 

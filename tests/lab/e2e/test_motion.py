@@ -54,3 +54,36 @@ def test_without_its_motion_the_same_render_scores_worse(motion_report, tmp_path
         out, _ = run_pass("spreadlets", Frame(image.rgb, image.depth, alpha=image.alpha, motion=m), camera, db, runs=1)
         scores[name] = ssim(out, reference)
     assert scores["moving"] > scores["still"] + 0.01, scores
+
+
+def test_report_over_several_scenes_writes_lsr18_table2(motion_report, tmp_path, capsys):
+    """`splatlab report A B --noise-floor`: each scene's report, then Table 2 linking to them,
+    with each reference's noise floor (two seeds) beside the methods."""
+    import json
+
+    from lab.cli import main
+
+    assert main(["report", str(SCENES / "tiny_motion.toml"), str(SCENES / "tiny_heart.toml"),
+                 "--out-dir", str(tmp_path), "--noise-floor"]) == 0
+    table = json.loads((tmp_path / "report.json").read_text())
+    assert [row["scene"] for row in table["scenes"]] == ["tiny_motion", "tiny_heart"]
+    for row in table["scenes"]:
+        report = json.loads((tmp_path / row["scene"] / "report.json").read_text())
+        assert row["spreadlets"]["ssim"] == report["methods"]["spreadlets"]["ssim"]
+        assert row["speedup_vs_splat"] == pytest.approx(report["methods"]["splat"]["time_ms"]
+                                                         / report["methods"]["spreadlets"]["time_ms"])
+        assert 0.5 < row["noise_floor"]["ssim"] < 1.0 and row["paper"] is None
+    page = (tmp_path / "index.html").read_text()
+    assert "href='tiny_motion/index.html'" in page and "LSR18 Table 2" in page
+    assert "noise floor: two reference seeds agree" in capsys.readouterr().out
+
+
+def test_table2_puts_the_papers_row_beside_a_scene_of_the_paper(motion_report, tmp_path):
+    from lab.report.table2 import LSR18_TABLE2, write_summary
+
+    report, _ = motion_report
+    renamed = dict(report, scene=dict(report["scene"], name="whirl"))
+    write_summary([renamed], [tmp_path / "whirl"], tmp_path)
+    page = (tmp_path / "index.html").read_text()
+    assert "LSR18 Table 2" in page and f"{LSR18_TABLE2['whirl']['splat'][0]:.1f}" in page
+    assert "8.2&times;" in page          # the paper's Splat / spreadlets: 722.8 / 88.0 ms

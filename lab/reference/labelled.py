@@ -94,4 +94,7 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
     if moves:
         flow = motion_vectors(scene, mi_scene, *hits)
         extra.update({"motion.X": flow[..., 0], "motion.Y": flow[..., 1]})
-    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=scene.camera.camera_json(), extra=extra)
+    header = scene.camera.camera_json()
+    if scene.medium is not None:
+        header["medium"] = scene.medium.header_json()   # the runtime adds it: the pixels are without it
+    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=header, extra=extra)

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import time
 from datetime import datetime, timezone
 from pathlib import Path
 
 from .cache_key import code_digest
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
+from .parallel import Executor
 from .paths import REPORTS, cache_root
 from .plan import Plan, make_plan
 from .precompute import precompute
@@ -34,11 +36,18 @@ def render_key(scene: Scene, packages=None) -> str:
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 
-def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tuple:
-    """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info)."""
-    from .reference.labelled import render_labelled
-    from .reference.references import render_reference_step
+def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
+                         executor: Executor | None = None) -> tuple:
+    """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info).
 
+    The reference's passes run where ``executor`` says (default: this process), each cached in
+    ``<cache>/renders/<scene>-<key>/reference-passes/`` until ``reference.exr`` is written, so an
+    interrupted render resumes (:func:`lab.reference.execute.run_job`). The input renders here.
+    """
+    from .reference.labelled import render_labelled
+    from .reference.references import reference_step
+
+    executor = Executor() if executor is None else executor
     folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"
     folder.mkdir(parents=True, exist_ok=True)
     info = {"cache": str(folder)}
@@ -55,9 +64,17 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
         reference = read_rgb(ref_path)
         info["reference_s"] = "cached"
     else:
+        from .reference.execute import run_job
+        from .reference.passes import RenderJob
+
         t = time.perf_counter()
-        reference = render_reference_step(plan.references[0].name, scene, image, progress)
+        reference = reference_step(plan.references[0].name, scene, image)
+        passes = folder / "reference-passes"
+        if isinstance(reference, RenderJob):
+            reference = run_job(reference, executor, passes, progress)
+            info["reference_on"] = executor.describe()
         write_rgb(ref_path, reference)
+        shutil.rmtree(passes, ignore_errors=True)  # reference.exr now holds them
         info["reference_s"] = round(time.perf_counter() - t, 2)
     info.update(reference_spp=scene.render.reference_spp, input_spp=scene.render.input_spp,
                 steps=[s.name for s in plan.references])
@@ -65,15 +82,18 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
 
 
 def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool = False,
-                    progress: bool = True) -> dict:
-    """Precompute (or reuse) every PSF model the plan lists; name -> PrecomputeResult."""
+                    progress: bool = True, executor: Executor | None = None) -> dict:
+    """Precompute (or reuse) every PSF model the plan lists, where ``executor`` says (default:
+    this process); name -> PrecomputeResult."""
     from .psf_settings import model_table
     from .psf_tracing.models import load_model
 
+    executor = Executor() if executor is None else executor
     results = {}
     for name in plan.psf_models:
         model = load_model(name, model_table(scene, name, image), f"{scene.source} [psf.{name}]")
-        results[name] = precompute(model, force=force, progress=progress)
+        results[name] = precompute(model, force=force, progress=progress, workers=executor.workers,
+                                   scheduler=executor.scheduler, threads=executor.threads)
     return results
 
 
@@ -86,8 +106,12 @@ def default_out_dir(scene: Scene) -> Path:
     return REPORTS / scene.name
 
 
-def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -> dict:
-    """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict."""
+def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
+               executor: Executor | None = None) -> dict:
+    """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict.
+
+    ``executor`` (default: this process) runs the reference's passes and the databases' cells.
+    """
     from .report.build import assemble_report
 
     scene, plan = load_scene_and_plan(scene_path)
@@ -98,8 +122,8 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -
 
         baseline_report = load_report(baseline)  # fail early, before hours of work
     t0 = time.perf_counter()
-    image, reference, ref_info = inputs_and_reference(scene, plan, progress)
-    databases = build_databases(scene, plan, image, progress=progress)
+    image, reference, ref_info = inputs_and_reference(scene, plan, progress, executor)
+    databases = build_databases(scene, plan, image, progress=progress, executor=executor)
     from .runtime_passes import run_runtime
 
     results = run_runtime(plan, image, databases, progress=progress)

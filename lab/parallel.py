@@ -38,6 +38,7 @@ __all__ = ["Executor", "usable_cores", "check_workers", "check_threads", "check_
 DASK_TIMEOUT_S = 20.0
 PARENT_POLL_S = 0.25
 _ADDRESS = re.compile(r"^(tcp|tls|inproc|ws|wss|ucx)://[^\s:/]+(:\d{1,5})?/?$")
+_END = object()  # what next() returns when there are no more items
 
 
 def usable_cores() -> int:
@@ -202,9 +203,6 @@ def _map_dask(fn: Callable, items: list, client) -> Iterator[tuple]:
             client.cancel([f for f, _ in live.values()])
 
 
-_END = object()
-
-
 class Executor:
     """Where a job's tasks run: ``workers`` local processes (1: this process) or a Dask cluster.
 
@@ -272,7 +270,7 @@ class Executor:
         """Dr.Jit threads per worker process: ``threads`` if given, else cores / workers for local
         processes, a dict by worker address on Dask (:func:`dask_threads`), None (Dr.Jit's default)
         in this process."""
-        if self.threads is not None or self.scheduler is None and self.workers == 1:
+        if self.threads is not None or (self.scheduler is None and self.workers == 1):
             return self.threads
         if self.scheduler is not None:
             return dask_threads(self.client())

@@ -86,10 +86,9 @@ def split_spp(spp: int, width: int, height: int, pass_spp: int | None = None) ->
     if pass_spp is None:
         fit = max(1, MAX_SAMPLES_PER_PASS // (width * height))
         pass_spp = min(_DRJIT_BLOCK, 1 << (fit.bit_length() - 1))
-    elif not _power_of_two(pass_spp):
-        raise ValueError(f"pass_spp = {pass_spp} must be a power of two (1, 2, 4, ..., 16384), so "
-                         "that each pass image is the same whatever Dr.Jit thread count renders it")
-    pass_spp = min(pass_spp, _DRJIT_BLOCK)
+    elif not _power_of_two(pass_spp) or pass_spp > _DRJIT_BLOCK:
+        raise ValueError(f"pass_spp = {pass_spp} must be a power of two (1, 2, 4, ..., {_DRJIT_BLOCK}), "
+                         "so that each pass image is the same whatever Dr.Jit thread count renders it")
     n, rest = divmod(spp, pass_spp)
     chunks = [pass_spp] * n + [1 << b for b in reversed(range(rest.bit_length())) if rest >> b & 1]
     return [part for c in chunks for part in (

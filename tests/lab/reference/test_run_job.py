@@ -141,3 +141,19 @@ def test_unreachable_scheduler_is_one_user_error(scene, serial, tmp_path, monkey
 def test_bad_executor_options(workers, scheduler, match):
     with pytest.raises(UserError, match=match):
         Executor(workers, scheduler)
+
+
+def test_a_worker_loads_the_job_once_per_run_and_refuses_other_code(scene):
+    import pickle
+
+    from lab.reference.execute import PassTask, _code_roots
+    from lab.cache_key import code_digest
+
+    job = reference_job(scene, spp=16)
+    task = PassTask(job, "run-1", code_digest(_code_roots(job)), None)
+    first, second = (pickle.loads(pickle.dumps(task)) for _ in range(2))
+    assert first.job is second.job is not job and first.shipped and not task.shipped
+    assert pickle.loads(pickle.dumps(PassTask(job, "run-2", task.code, None))).job is not first.job
+    assert first(job.passes()[0]).tobytes() == job.render(job.passes()[0]).tobytes()
+    with pytest.raises(UserError, match=r"code \(digest .*differs from the job's \(000000000000\)"):
+        pickle.loads(pickle.dumps(PassTask(job, "run-3", "0" * 64, None)))(job.passes()[0])

@@ -22,8 +22,16 @@ def cmd_plan(args) -> int:
     return 0
 
 
-def _scene_models(scene_path) -> list:
-    """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC range)."""
+def _executor(args):
+    """Where the command's tasks run, from ``--workers``, ``--scheduler`` (and ``--threads``)."""
+    from .parallel import Executor
+
+    return Executor(args.workers, args.scheduler, getattr(args, "threads", None))
+
+
+def _scene_models(scene_path, executor) -> list:
+    """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC
+    range, and its reference where ``executor`` says)."""
     from .pipeline import inputs_and_reference, load_scene_and_plan
     from .psf_settings import model_table
     from .psf_tracing.models import load_model
@@ -31,19 +39,16 @@ def _scene_models(scene_path) -> list:
     scene, plan = load_scene_and_plan(scene_path)
     if not plan.psf_models:
         return []
-    image, _, _ = inputs_and_reference(scene, plan)
+    image, _, _ = inputs_and_reference(scene, plan, executor=executor)
     return [load_model(name, model_table(scene, name, image), f"{scene.source} [psf.{name}]")
             for name in plan.psf_models]
 
 
 def cmd_precompute(args) -> int:
     from .precompute import precompute
-    from .precompute.executors import check_scheduler, check_workers
     from .precompute.target import load_target_model, resolve_target
 
-    check_workers(args.workers)
-    if args.scheduler is not None:
-        check_scheduler(args.scheduler)
+    executor = _executor(args)
     target = resolve_target(args.target)
     if target.kind == "model":
         models = [load_target_model(target.name, args.sets)]
@@ -51,7 +56,8 @@ def cmd_precompute(args) -> int:
         if args.sets:
             raise UserError(f"--set with scene {target.path}: --set configures a model name; edit the "
                             "scene's [psf.<model>] table instead")
-        models = _scene_models(target.path)
+        with executor:
+            models = _scene_models(target.path, executor)
         if not models:
             print(f"{target.path}: the plan needs no PSF database (see `splatlab plan {target.path}`)")
             return 0
@@ -85,10 +91,12 @@ def cmd_reference(args) -> int:
     from .exr_io import write_labelled, write_rgb
     from .pipeline import default_out_dir, inputs_and_reference, load_scene_and_plan
 
+    executor = _executor(args)
     scene, plan = load_scene_and_plan(args.scene)
     out = args.out_dir or default_out_dir(scene)
     out.mkdir(parents=True, exist_ok=True)
-    image, reference, _ = inputs_and_reference(scene, plan)
+    with executor:
+        image, reference, _ = inputs_and_reference(scene, plan, progress=not args.quiet, executor=executor)
     write_labelled(out / "input.exr", image)
     write_rgb(out / "reference.exr", reference)
     print(f"input (labelled pixels): {out / 'input.exr'}\nreference: {out / 'reference.exr'}")
@@ -169,10 +177,10 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline, noise: bool = False) -> tuple:
+def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False) -> tuple:
     from .pipeline import run_report
 
-    report = run_report(scene_path, out_dir, baseline, noise=noise)
+    report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
         print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
@@ -189,9 +197,7 @@ def _report(scene_path, out_dir, baseline, noise: bool = False) -> tuple:
 def cmd_report(args) -> int:
     """One scene: its report; several: each scene's report, then LSR18 Table 2 over them."""
     scenes = list(args.scene)
-    if len(scenes) == 1:
-        return _report(scenes[0], args.out_dir, args.baseline, args.noise_floor)[0]
-    if args.baseline is not None:
+    if len(scenes) > 1 and args.baseline is not None:
         raise UserError(f"--baseline {args.baseline}: a baseline is one scene's report.json; check one "
                         "scene at a time")
     from .pipeline import load_scene_and_plan
@@ -200,11 +206,14 @@ def cmd_report(args) -> int:
     names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
     if len(set(names)) < len(names):
         raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
-    root = Path(args.out_dir) if args.out_dir else None
-    codes, reports, dirs = [], [], []
-    for path, name in zip(scenes, names):
-        code, report, out = _report(path, root / name if root else None, None, args.noise_floor)
-        codes.append(code), reports.append(report), dirs.append(out)
+    with _executor(args) as executor:
+        if len(scenes) == 1:
+            return _report(scenes[0], args.out_dir, args.baseline, executor, args.noise_floor)[0]
+        root = Path(args.out_dir) if args.out_dir else None
+        codes, reports, dirs = [], [], []
+        for path, name in zip(scenes, names):
+            code, report, out = _report(path, root / name if root else None, None, executor, args.noise_floor)
+            codes.append(code), reports.append(report), dirs.append(out)
     page = write_summary(reports, dirs, root or REPORTS / "table2")
     print(f"LSR18 Table 2 over {len(reports)} scenes: {page.resolve()}")
     return max(codes)

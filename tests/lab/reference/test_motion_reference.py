@@ -91,9 +91,10 @@ def test_the_subject_moves_left_on_screen_when_it_moves_along_world_plus_x(movin
 def test_subframes_and_their_passes(moving):
     assert subframes_for(0.0) == 1 and subframes_for(17.8) == 18 and subframes_for(4.0, 0.5) == 8
     job = MotionJob(moving, 10, subframes=4)
-    passes = job.passes()
-    assert [p.get("time") for p in passes] == [0.125, 0.375, 0.625, 0.875]
-    assert [p.spp for p in passes] == [3] * 4 and len({p.seed for p in passes}) == 4
+    passes = job.passes()              # 3 spp per sub-frame, as power-of-two passes 2 + 1
+    assert [p.get("time") for p in passes] == [0.125, 0.125, 0.375, 0.375, 0.625, 0.625, 0.875, 0.875]
+    assert [p.spp for p in passes] == [2, 1] * 4 and len({p.seed for p in passes}) == 8
+    assert [p.index for p in passes] == list(range(8))
     shutter = replace(moving, camera=replace(moving.camera, shutter=(-1.0, 1.0)))
     assert MotionJob(shutter, 4, subframes=2).times() == [-0.5, 0.5]
 

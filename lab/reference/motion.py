@@ -98,7 +98,7 @@ def project(scene: Scene, points: np.ndarray, t: float) -> np.ndarray:
     return np.stack([x, y], axis=-1)
 
 
-def motion_vectors(scene: Scene, mi_scene, hits: np.ndarray, valid: np.ndarray) -> np.ndarray:
+def motion_vectors(scene: Scene, mi_scene, hits: np.ndarray, valid: np.ndarray, shape_ids: np.ndarray) -> np.ndarray:
     """(H, W, 2) float32 motion in pixels over the shutter (X right, Y up) of the labelled input.
 
     Parameters
@@ -111,11 +111,12 @@ def motion_vectors(scene: Scene, mi_scene, hits: np.ndarray, valid: np.ndarray) 
     valid : (H, W) bool
         Where a ray hit a surface; elsewhere (the sky at infinity) the motion is 0, which a
         translating camera does not change.
+    shape_ids : (H, W) uint32
+        The Mitsuba shape hit at each pixel (:func:`lab.reference.labelled.pixel_centre_hits`).
     """
     mi = mitsuba()
     import drjit as dr
 
-    shape_id = _hit_shapes(scene, mi_scene)
     t_mid = mid_shutter(scene.camera)
     t_open, t_close = scene.camera.shutter
     start, end = hits.copy(), hits.copy()
@@ -124,7 +125,7 @@ def motion_vectors(scene: Scene, mi_scene, hits: np.ndarray, valid: np.ndarray) 
     for i, shape in enumerate(scene.shapes):
         if shape.velocity is None and shape.angular_velocity_deg is None:
             continue
-        on = valid & (shape_id == ids[f"shape_{i}"])
+        on = valid & (shape_ids == ids[f"shape_{i}"])
         back = np.linalg.inv(shape.to_world_at(t_mid))
         local = hits[on] @ back[:3, :3].T + back[:3, 3]            # object space
         for out, t in ((start, t_open), (end, t_close)):
@@ -134,19 +135,6 @@ def motion_vectors(scene: Scene, mi_scene, hits: np.ndarray, valid: np.ndarray) 
     flow[..., 1] *= -1.0                                            # Y up
     flow[~valid] = 0.0
     return flow.astype(np.float32)
-
-
-def _hit_shapes(scene: Scene, mi_scene) -> np.ndarray:
-    """(H, W) uint32 Mitsuba shape ids of the pixel-centre hits (as :func:`pixel_centre_hits`)."""
-    mi = mitsuba()
-    import drjit as dr
-
-    w, h = scene.width, scene.height
-    idx = dr.arange(mi.UInt32, w * h)
-    pos = mi.Point2f((mi.Float(idx % w) + 0.5) / w, (mi.Float(idx // w) + 0.5) / h)
-    ray, _ = mi_scene.sensors()[0].sample_ray(mi.Float(0.0), mi.Float(0.5), pos, mi.Point2f(0.5, 0.5))
-    si = mi_scene.ray_intersect(ray)
-    return np.asarray(dr.reinterpret_array(mi.UInt32, si.shape)).reshape(h, w)
 
 
 def subframes_for(max_motion_px: float, step_px: float = SUBFRAME_STEP_PX) -> int:

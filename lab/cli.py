@@ -32,6 +32,19 @@ one line naming the file, the value and the fix.
 """
 
 
+REFERENCE_EPILOG = """\
+examples:
+  splatlab reference scenes/demo.toml                                 passes one after the other
+  splatlab reference scenes/demo.toml --workers 2                     passes in 2 local processes
+  splatlab reference scenes/demo.toml --scheduler tcp://10.0.0.5:8786 passes on a Dask cluster
+
+The reference renders as seeded passes, averaged in pass order: the image is bitwise the same
+wherever the passes ran. Each finished pass is kept under .cache/renders/<scene>-<key>/
+reference-passes/ until reference.exr is written: interrupt at any time, the same command
+resumes. Dask workers: `dask worker tcp://HOST:8786 --nthreads 1 --nworkers K` (same splatlab).
+"""
+
+
 PRECOMPUTE_EPILOG = """\
 examples:
   splatlab precompute simple_lens --set max_coc_px=64            one model, defaults + overrides
@@ -49,6 +62,23 @@ def _add_scene(p):
     p.add_argument("scene", type=Path, help="scene file (TOML), e.g. scenes/demo.toml")
 
 
+def _int_or_text(text: str):
+    """An integer option's value, or its text for the command to reject in one line (exit 2)."""
+    try:
+        return int(text)
+    except ValueError:
+        return text
+
+
+def _add_where(p, what: str):
+    """``--workers N`` | ``--scheduler ADDRESS``: where ``what`` runs."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_int_or_text, default=1, metavar="N",
+                       help=f"local worker processes for {what} (default 1: this process)")
+    where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help=f"run {what} on this Dask distributed scheduler's workers")
+
+
 DESCRIPTIONS = {
     "plan": "Read a scene file and print the effects it calls for (depth of field, motion, medium, "
             "chromatic aberration, aperture), the PSF models that will be precomputed, the references "
@@ -59,8 +89,11 @@ DESCRIPTIONS = {
                   "where it stopped; cells run here, in --workers N local processes or on a Dask cluster "
                   "(--scheduler), with the same database bitwise. The result is cached under .cache/db/ by "
                   "a hash of the model, its configuration and the code: unchanged settings reuse it.",
-    "reference": "Render the Mitsuba 3 path-traced reference (through the scene's thin lens) and the "
-                 "pinhole labelled-pixel input EXR (R, G, B, A, Z and the splatlab.camera header).",
+    "reference": "Render the Mitsuba 3 path-traced reference (through the scene's own camera and "
+                 "medium) and the pinhole labelled-pixel input EXR (R, G, B, A, Z and the "
+                 "splatlab.camera header). The reference's seeded passes run here, in --workers N local "
+                 "processes or on a Dask cluster (--scheduler), each cached so an interrupted render "
+                 "resumes; both are cached by a hash of the scene and the rendering code.",
     "render": "Render a labelled-pixel EXR (from `splatlab reference` or any renderer that writes R, G, B, "
               "A, Z and a splatlab.camera header) with a spreadlet database on the OpenCL device, or "
               "with --method polygon exactly with a flat polygonal aperture (MHU21; no database): each "
@@ -70,7 +103,11 @@ DESCRIPTIONS = {
               "database's symmetries say (motion direction, side of the focal plane, azimuth).",
     "report": "The whole job for one scene: plan, labelled-pixel input and Mitsuba reference, PSF "
               "databases, every runtime method, then SSIM/PSNR against the reference and timings in "
-              "reports/<scene>/index.html and report.json. Every stage is cached by content hash.",
+              "reports/<scene>/index.html and report.json. Every stage is cached by content hash. "
+              "Several scenes: each scene's report, then LSR18 Table 2 over them (Filter / Splat / "
+              "spreadlets: time and SSIM, the paper's figures beside ours) in reports/table2/. "
+              "--workers N or --scheduler ADDRESS runs the reference's passes and the databases' PSFs "
+              "in local processes or on a Dask cluster (same results bitwise).",
     "demo": "Run `splatlab report` on the embedded default scene scenes/demo.toml (1024x1024, 85 mm lens "
             "with large bokeh) and print where the report is. This is what `make demo` runs.",
     "bench": "Benchmarks written as JSON under reports/bench/ (with machine and versions). Methods are "
@@ -102,11 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a registered PSF model name (e.g. simple_lens) or a scene file (TOML)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
                    help="override a model setting (repeatable; TOML values: 64, 2.5, true, [2, 1], circle)")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, default=1, metavar="N",
-                       help="local worker processes, each tracing whole cells (default 1)")
-    where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                       help="run the cells on this Dask distributed scheduler's workers")
+    _add_where(p, "the cells (each process traces whole cells; also the reference of a scene target)")
     p.add_argument("--threads", type=int, metavar="T", help="Dr.Jit threads per worker process "
                    "(default: cores / workers; with --scheduler, a host's cores / its worker processes)")
     p.add_argument("--out", type=Path, help="copy the database here too (it is always cached by content hash)")
@@ -115,10 +148,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="rebuild even when a database with this hash exists")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    p = sub.add_parser("reference", description=DESCRIPTIONS["reference"], help="render the Mitsuba reference and the pinhole labelled-pixel input")
+    p = sub.add_parser("reference", description=DESCRIPTIONS["reference"], help="render the Mitsuba reference and the pinhole labelled-pixel input",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog=REFERENCE_EPILOG)
     _add_scene(p)
     p.add_argument("--out-dir", type=Path, help="write reference.exr and input.exr here "
                    "(default reports/<scene>/)")
+    _add_where(p, "the reference's render passes")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
 
     p = sub.add_parser("render", description=DESCRIPTIONS["render"], help="render a labelled-pixel EXR with a spreadlet database")
     p.add_argument("input", type=Path, help="labelled-pixel EXR: R,G,B,A,Z and the splatlab.camera header")
@@ -141,10 +177,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="output EXR (R, G, B)")
     p.add_argument("--camera", type=Path, help="camera TOML ([camera] table) overriding the EXR header")
 
-    p = sub.add_parser("report", description=DESCRIPTIONS["report"], help="the whole job for a scene: precompute, references, methods, report")
-    _add_scene(p)
-    p.add_argument("--out-dir", type=Path, help="report directory (default reports/<scene name>/)")
-    p.add_argument("--baseline", type=Path, help="report.json to check for regressions (exit 1 if any)")
+    p = sub.add_parser("report", description=DESCRIPTIONS["report"], help="the whole job for scenes: precompute, references, methods, report")
+    p.add_argument("scene", type=Path, nargs="+", help="scene file(s) (TOML), e.g. scenes/whirl.toml scenes/gears.toml")
+    p.add_argument("--out-dir", type=Path, help="report directory (default reports/<scene name>/); with several "
+                   "scenes, the Table 2 page (default reports/table2/) with each scene's report in <dir>/<scene>/")
+    p.add_argument("--baseline", type=Path, help="report.json to check for regressions (exit 1 if any; one scene)")
+    p.add_argument("--noise-floor", action="store_true", help="render a second reference with an independent "
+                   "seed and report how far the two agree (the SSIM no method can beat)")
+    _add_where(p, "the reference's render passes and the databases' PSFs")
 
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")
 

@@ -22,8 +22,16 @@ def cmd_plan(args) -> int:
     return 0
 
 
-def _scene_models(scene_path) -> list:
-    """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC range)."""
+def _executor(args):
+    """Where the command's tasks run, from ``--workers``, ``--scheduler`` (and ``--threads``)."""
+    from .parallel import Executor
+
+    return Executor(args.workers, args.scheduler, getattr(args, "threads", None))
+
+
+def _scene_models(scene_path, executor) -> list:
+    """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC
+    range, and its reference where ``executor`` says)."""
     from .pipeline import inputs_and_reference, load_scene_and_plan
     from .psf_settings import model_table
     from .psf_tracing.models import load_model
@@ -31,19 +39,16 @@ def _scene_models(scene_path) -> list:
     scene, plan = load_scene_and_plan(scene_path)
     if not plan.psf_models:
         return []
-    image, _, _ = inputs_and_reference(scene, plan)
+    image, _, _ = inputs_and_reference(scene, plan, executor=executor)
     return [load_model(name, model_table(scene, name, image), f"{scene.source} [psf.{name}]")
             for name in plan.psf_models]
 
 
 def cmd_precompute(args) -> int:
     from .precompute import precompute
-    from .precompute.executors import check_scheduler, check_workers
     from .precompute.target import load_target_model, resolve_target
 
-    check_workers(args.workers)
-    if args.scheduler is not None:
-        check_scheduler(args.scheduler)
+    executor = _executor(args)
     target = resolve_target(args.target)
     if target.kind == "model":
         models = [load_target_model(target.name, args.sets)]
@@ -51,7 +56,8 @@ def cmd_precompute(args) -> int:
         if args.sets:
             raise UserError(f"--set with scene {target.path}: --set configures a model name; edit the "
                             "scene's [psf.<model>] table instead")
-        models = _scene_models(target.path)
+        with executor:
+            models = _scene_models(target.path, executor)
         if not models:
             print(f"{target.path}: the plan needs no PSF database (see `splatlab plan {target.path}`)")
             return 0
@@ -85,10 +91,12 @@ def cmd_reference(args) -> int:
     from .exr_io import write_labelled, write_rgb
     from .pipeline import default_out_dir, inputs_and_reference, load_scene_and_plan
 
+    executor = _executor(args)
     scene, plan = load_scene_and_plan(args.scene)
     out = args.out_dir or default_out_dir(scene)
     out.mkdir(parents=True, exist_ok=True)
-    image, reference, _ = inputs_and_reference(scene, plan)
+    with executor:
+        image, reference, _ = inputs_and_reference(scene, plan, progress=not args.quiet, executor=executor)
     write_labelled(out / "input.exr", image)
     write_rgb(out / "reference.exr", reference)
     print(f"input (labelled pixels): {out / 'input.exr'}\nreference: {out / 'reference.exr'}")
@@ -169,26 +177,50 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline) -> int:
+def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False) -> tuple:
     from .pipeline import run_report
 
-    report = run_report(scene_path, out_dir, baseline)
+    report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
         print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
+    floor = report["reference"].get("noise_floor")
+    if floor:
+        print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")
     print(f"report: {out.resolve() / 'index.html'}\n        {out.resolve() / 'report.json'}")
     if report.get("regressions"):
         _say("regressions against the baseline:\n  " + "\n  ".join(report["regressions"]))
-        return 1
-    return 0
+        return 1, report, out
+    return 0, report, out
 
 
 def cmd_report(args) -> int:
-    return _report(args.scene, args.out_dir, args.baseline)
+    """One scene: its report; several: each scene's report, then LSR18 Table 2 over them."""
+    scenes = list(args.scene)
+    if len(scenes) > 1 and args.baseline is not None:
+        raise UserError(f"--baseline {args.baseline}: a baseline is one scene's report.json; check one "
+                        "scene at a time")
+    from .pipeline import load_scene_and_plan
+    from .report.table2 import write_summary
+
+    names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
+    if len(set(names)) < len(names):
+        raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
+    with _executor(args) as executor:
+        if len(scenes) == 1:
+            return _report(scenes[0], args.out_dir, args.baseline, executor, args.noise_floor)[0]
+        root = Path(args.out_dir) if args.out_dir else None
+        codes, reports, dirs = [], [], []
+        for path, name in zip(scenes, names):
+            code, report, out = _report(path, root / name if root else None, None, executor, args.noise_floor)
+            codes.append(code), reports.append(report), dirs.append(out)
+    page = write_summary(reports, dirs, root or REPORTS / "table2")
+    print(f"LSR18 Table 2 over {len(reports)} scenes: {page.resolve()}")
+    return max(codes)
 
 
 def cmd_demo(args) -> int:
-    return _report(DEMO_SCENE, None, None)
+    return _report(DEMO_SCENE, None, None)[0]
 
 
 def cmd_bench(args) -> int:

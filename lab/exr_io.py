@@ -238,6 +238,20 @@ def _check_depth(path, z: np.ndarray):
                         "(inf for background at infinity): fix the renderer's depth output")
 
 
+def _check_motion(path, channels: dict):
+    """motion.X and motion.Y come together and are finite (pixels over the shutter)."""
+    found = [c for c in ("motion.X", "motion.Y") if c in channels]
+    if len(found) == 1:
+        raise UserError(f"{path}: channel {found[0]} without its partner; motion vectors need both motion.X "
+                        "and motion.Y (pixels over the shutter, Y up)")
+    for c in found:
+        bad = ~np.isfinite(channels[c])
+        if np.any(bad):
+            y, x = np.argwhere(bad)[0]
+            raise UserError(f"{path}: {int(bad.sum())} pixel(s) of {c} are NaN or infinite, first at (x={x}, "
+                            f"y={y}); give every pixel a finite motion in pixels (0 for a still one)")
+
+
 def _header_camera(path, header: dict) -> dict:
     raw = header.get(CAMERA_ATTR)
     if raw is None:
@@ -277,9 +291,14 @@ def read_labelled(path, camera: dict | None = None) -> LabelledImage:
     _require(path, channels, "RGB", "a labelled-pixel EXR needs linear R, G, B radiance")
     if "Z" not in channels:
         raise UserError(f"{path}: an EXR without Z (has {sorted(channels)}); the splatting runtime "
-                        "needs per-pixel depth: render the input with `splatlab input SCENE` or add a Z "
+                        "needs per-pixel depth: render the input with `splatlab reference SCENE` or add a Z "
                         "channel (planar camera depth in metres)")
     z = channels["Z"]
+    wrong = {name: ch.shape for name, ch in channels.items() if ch.shape != z.shape}
+    if wrong:
+        raise UserError(f"{path}: channel(s) {sorted(wrong)} are {sorted(set(wrong.values()))} pixels, Z is "
+                        f"{z.shape}; write every channel at full resolution (x/y sampling 1)")
+    _check_motion(path, channels)
     _check_depth(path, z)
     if camera is not None:
         camera = validate_camera(camera, f"{path}: --camera override")

@@ -50,6 +50,11 @@ class Medium:
         return (f"homogeneous (sigma_t {self.sigma_t:g} /m, albedo {list(self.albedo)}, g {self.g:g}), "
                 "filling the scene")
 
+    def header_json(self) -> dict:
+        """The labelled input header's ``"medium"``: the fog the runtime must add (the input is
+        rendered without it), matched against a volume database's fingerprint."""
+        return {"sigma_t": float(self.sigma_t), "albedo": [float(a) for a in self.albedo], "g": float(self.g)}
+
     def model_keys(self) -> dict:
         """The ``volume`` PSF model's keys for this medium."""
         return {"medium_density": float(self.sigma_t), "albedo": tuple(self.albedo), "g": float(self.g)}

@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import time
+from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 
 from .cache_key import code_digest
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
+from .parallel import Executor
 from .paths import REPORTS, cache_root
 from .plan import Plan, make_plan
 from .precompute import precompute
@@ -34,11 +37,23 @@ def render_key(scene: Scene, packages=None) -> str:
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 
-def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tuple:
-    """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info)."""
-    from .reference.labelled import render_labelled
-    from .reference.references import render_reference_step
+NOISE_SEED_OFFSET = 1_000_003   # the second reference's seed: seed + this (mod 2^31)
 
+
+def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
+                         executor: Executor | None = None, second: bool = False) -> tuple:
+    """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info).
+
+    The reference's passes run where ``executor`` says (default: this process), each cached in
+    ``<cache>/renders/<scene>-<key>/reference-passes/`` until ``reference.exr`` is written, so an
+    interrupted render resumes (:func:`lab.reference.execute.run_job`). The input renders here.
+    ``second``: also render a reference with an independent seed (``reference_b.exr``) and put how
+    far the two agree in ``info["noise_floor"]``: the SSIM and PSNR no method can beat.
+    """
+    from .reference.labelled import render_labelled
+    from .report.metrics import psnr, ssim
+
+    executor = Executor() if executor is None else executor
     folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"
     folder.mkdir(parents=True, exist_ok=True)
     info = {"cache": str(folder)}
@@ -51,29 +66,52 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True) -> tup
         image = render_labelled(scene, progress=progress)
         write_labelled(input_path, image)
         info["input_s"] = round(time.perf_counter() - t, 2)
-    if ref_path.exists():
-        reference = read_rgb(ref_path)
-        info["reference_s"] = "cached"
-    else:
-        t = time.perf_counter()
-        reference = render_reference_step(plan.references[0].name, scene, image, progress)
-        write_rgb(ref_path, reference)
-        info["reference_s"] = round(time.perf_counter() - t, 2)
+    reference, info["reference_s"] = _reference(scene, plan, image, ref_path, executor, progress)
+    if not isinstance(info["reference_s"], str) and plan.references[0].name != "pinhole":
+        info["reference_on"] = executor.describe()
     info.update(reference_spp=scene.render.reference_spp, input_spp=scene.render.input_spp,
                 steps=[s.name for s in plan.references])
+    if second and plan.references[0].name != "pinhole":
+        other = replace(scene, render=replace(scene.render, seed=(scene.render.seed + NOISE_SEED_OFFSET) % 2**31))
+        again, seconds = _reference(other, plan, image, folder / "reference_b.exr", executor, progress)
+        info["noise_floor"] = {"ssim": ssim(again, reference), "psnr": psnr(again, reference),
+                               "seeds": [scene.render.seed, other.render.seed], "reference_s": seconds}
     return image, reference, info
 
 
+def _reference(scene: Scene, plan: Plan, image, path: Path, executor: Executor, progress: bool) -> tuple:
+    """The plan's reference of ``scene`` at ``path`` (read if cached; else rendered where ``executor``
+    says, its passes cached in ``<path stem>-passes/`` until the EXR is written); (image, seconds or
+    "cached")."""
+    from .reference.execute import run_job
+    from .reference.passes import RenderJob
+    from .reference.references import reference_step
+
+    if path.exists():
+        return read_rgb(path), "cached"
+    t = time.perf_counter()
+    reference = reference_step(plan.references[0].name, scene, image)
+    passes = path.with_name(f"{path.stem}-passes")
+    if isinstance(reference, RenderJob):
+        reference = run_job(reference, executor, passes, progress)
+    write_rgb(path, reference)
+    shutil.rmtree(passes, ignore_errors=True)  # the EXR now holds them
+    return reference, round(time.perf_counter() - t, 2)
+
+
 def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool = False,
-                    progress: bool = True) -> dict:
-    """Precompute (or reuse) every PSF model the plan lists; name -> PrecomputeResult."""
+                    progress: bool = True, executor: Executor | None = None) -> dict:
+    """Precompute (or reuse) every PSF model the plan lists, where ``executor`` says (default:
+    this process); name -> PrecomputeResult."""
     from .psf_settings import model_table
     from .psf_tracing.models import load_model
 
+    executor = Executor() if executor is None else executor
     results = {}
     for name in plan.psf_models:
         model = load_model(name, model_table(scene, name, image), f"{scene.source} [psf.{name}]")
-        results[name] = precompute(model, force=force, progress=progress)
+        results[name] = precompute(model, force=force, progress=progress, workers=executor.workers,
+                                   scheduler=executor.scheduler, threads=executor.threads)
     return results
 
 
@@ -86,8 +124,13 @@ def default_out_dir(scene: Scene) -> Path:
     return REPORTS / scene.name
 
 
-def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -> dict:
-    """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict."""
+def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
+               executor: Executor | None = None, noise: bool = False) -> dict:
+    """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict.
+
+    ``executor`` (default: this process) runs the reference's passes and the databases' cells;
+    ``noise`` measures the reference's noise floor (see :func:`inputs_and_reference`).
+    """
     from .report.build import assemble_report
 
     scene, plan = load_scene_and_plan(scene_path)
@@ -98,8 +141,8 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True) -
 
         baseline_report = load_report(baseline)  # fail early, before hours of work
     t0 = time.perf_counter()
-    image, reference, ref_info = inputs_and_reference(scene, plan, progress)
-    databases = build_databases(scene, plan, image, progress=progress)
+    image, reference, ref_info = inputs_and_reference(scene, plan, progress, executor, second=noise)
+    databases = build_databases(scene, plan, image, progress=progress, executor=executor)
     from .runtime_passes import run_runtime
 
     results = run_runtime(plan, image, databases, progress=progress)

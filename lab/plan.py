@@ -2,8 +2,8 @@
 
 Each camera model (:mod:`lab.cameras`) has a plan rule, :meth:`lab.cameras.Camera.plan`, that
 fills in its part of the plan: depth of field, aperture, PSF models, references, runtime passes.
-Effects the scene files cannot express yet (motion, media, glass) are listed as skipped with the
-reason, so a plan always says what it will *not* do.
+Effects a scene does not call for are listed as skipped with the reason, so a plan always says
+what it will *not* do.
 
 The camera modules import :class:`Step` from here, so this module does not import the scene
 module (which imports them).
@@ -11,6 +11,9 @@ module (which imports them).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+from .errors import UserError
+from .motion import describe_motion, scene_moves
 
 
 @dataclass(frozen=True)
@@ -98,14 +101,15 @@ def make_plan(scene) -> Plan:
     """
     rule = scene.camera.plan(scene)
     r = scene.render
-    effects = {"dof": rule["dof"], "motion": "none",
+    moves = scene_moves(scene)
+    effects = {"dof": rule["dof"], "motion": describe_motion(scene),
                "medium": "none" if scene.medium is None else scene.medium.describe(), "chromatic": "none",
                "aperture": rule["aperture"], **rule.get("effects", {})}
-    skipped = list(rule["skipped"]) + [
-        Step("motion blur", "the scene has no moving objects or camera motion"),
-    ]
+    skipped = list(rule["skipped"])
     if effects["chromatic"] == "none":
         skipped.append(Step("chromatic aberration", "the camera has no glass (thin lens or pinhole)"))
+    if not moves:
+        skipped.insert(len(rule["skipped"]), Step("motion blur", "nothing moves while the shutter is open"))
     if scene.medium is None:
         skipped.append(Step("participating medium", "the scene has no medium"))
     if rule["aperture"] == "circle":
@@ -115,8 +119,12 @@ def make_plan(scene) -> Plan:
         skipped.append(Step(f"[psf.{', psf.'.join(unused)}]", "given in the scene but not needed by "
                                                              "this camera"))
     inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
-                                       "centres, camera in the EXR header"),)
+                                       "centres, camera in the EXR header"
+                   + (", at mid-shutter with motion.X, motion.Y (open -> close)" if moves else "")),)
     layers = scene.input_layers()
+    if layers and moves:
+        raise UserError(f"{scene.source} [[shapes]] layer: the layered input shows one instant and the scene "
+                        "moves; remove the layer keys or the velocities")
     if layers:
         inputs += (Step("layered_labelled", f"layer0..{len(layers) - 1}.R,G,B,A,Z ({r.input_spp} spp): "
                                             "the [[shapes]] layer keys, untagged shapes and sky last"),)

@@ -1,8 +1,7 @@
 """What a scene decides of a PSF model's settings: its ``[psf.<model>]`` table, filled in.
 
 A scene's ``[psf.<model>]`` table only overrides; the rest of what the model needs from the scene
-(the largest CoC from the depth range, the camera's aperture, and later the largest motion, the
-lens, the medium) is derived here, one function per model in :data:`SCENE_SETTINGS`. A table
+(the largest CoC from the depth range, the camera's aperture, the largest motion, the medium) is derived here, one function per model in :data:`SCENE_SETTINGS`. A table
 that contradicts the scene (a star database for a round camera) is an error naming both. A
 model without an entry takes its table as it is.
 """
@@ -58,6 +57,29 @@ def _stylized(table: dict, scene, image) -> dict:
     keys = dict(scene.camera.shaped().model_keys(), channel_scale=(1.0, 1.0, 1.0))
     _from_camera(table, scene, "stylized", keys)
     return _coc_range(table, scene, image)
+
+
+def _combined(table: dict, scene, image) -> dict:
+    """The camera's round aperture; ``max_coc_px`` as :func:`_coc_range` finds it (1 px for a
+    pinhole, whose CoC is 0 everywhere); ``max_motion_px``: the longest motion vector of the
+    input, rounded up to a multiple of 8 px; ``psf_resolution``: the smallest that holds both."""
+    import numpy as np
+    from .psf_tracing.models.combined import min_combined_resolution
+    from .runtime_passes import read_motion
+
+    _from_camera(table, scene, "combined", {"aperture": "circle"})
+    if "max_coc_px" not in table:
+        if scene.camera.thin_lens() is None:
+            table["max_coc_px"] = 1.0
+        else:
+            _coc_range(table, scene, image)
+            del table["psf_resolution"]
+    if "max_motion_px" not in table:
+        longest = float(np.hypot(*np.moveaxis(read_motion(image, scene.source, "combined"), -1, 0)).max())
+        table["max_motion_px"] = float(max(8, 8 * math.ceil(longest / 8.0)))
+    table.setdefault("psf_resolution", min_combined_resolution(
+        table["max_coc_px"], table["max_motion_px"], table.get("motion_direction_deg", 0.0)))
+    return table
 
 
 def _volume(table: dict, scene, image) -> dict:
@@ -117,7 +139,7 @@ def _physical_lens(table: dict, scene, image) -> dict:
 
 
 # Model name -> fill(table, scene, labelled input) -> table.
-SCENE_SETTINGS = {"simple_lens": _simple_lens, "stylized": _stylized, "volume": _volume,
+SCENE_SETTINGS = {"simple_lens": _simple_lens, "combined": _combined, "stylized": _stylized, "volume": _volume,
                   "physical_lens": _physical_lens}
 
 

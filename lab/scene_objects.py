@@ -16,6 +16,7 @@ import numpy as np
 
 from .config import from_table
 from .errors import UserError
+from .motion import check_vector, rigid_motion
 
 Vec3 = tuple[float, float, float]
 SHAPE_TYPES = ("sphere", "rectangle", "cube", "disk")
@@ -124,6 +125,9 @@ class Shape:
     ``material`` may be omitted only for a pure light (``emitter`` given): it is then black.
     ``layer`` (0 = nearest) puts the shape into that layer of the layered labelled input; shapes
     without one form the last layer with the environment (:meth:`lab.scene.Scene.input_layers`).
+    ``velocity`` (m per time unit) and ``angular_velocity_deg`` (a rotation vector, degrees per
+    time unit, about an axis through the shape's centre) move it while the shutter is open
+    (:mod:`lab.motion`).
     """
 
     type: str
@@ -135,8 +139,12 @@ class Shape:
     to_world: tuple[tuple[float, float, float, float], ...] | None = None
     emitter: AreaLight | None = None
     layer: int | None = None
+    velocity: Vec3 | None = None
+    angular_velocity_deg: Vec3 | None = None
 
     def __post_init__(self):
+        check_vector("velocity", self.velocity)
+        check_vector("angular_velocity_deg", self.angular_velocity_deg)
         if self.layer is not None and self.layer < 0:
             raise UserError(f"layer = {self.layer}: input layers are numbered from 0 (the nearest)")
         if self.type not in SHAPE_TYPES:
@@ -179,6 +187,12 @@ class Shape:
         m[:3, :3] = r_z @ r_y @ r_x @ np.diag(self._scale3())
         m[:3, 3] = self.center or (0.0, 0.0, 0.0)
         return m
+
+    def to_world_at(self, t: float) -> np.ndarray:
+        """The 4x4 object-to-world matrix at time t (:func:`lab.motion.rigid_motion` of the
+        placement at time 0, about the shape's centre)."""
+        m = self.to_world_matrix()
+        return rigid_motion(m[:3, 3], self.velocity, self.angular_velocity_deg, t) @ m
 
 
 @dataclass(frozen=True)

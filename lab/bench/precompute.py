@@ -86,7 +86,7 @@ def bench_precompute(repeats: int, models=None, build: bool = True, workers: int
     tables : dict, optional
         Model name -> settings replacing :data:`BENCH_TABLES` (tests use small ones).
     """
-    from lab.precompute.executors import check_workers
+    from lab.parallel import check_workers
     from lab.report.table1 import write_table1
 
     check_workers(workers)

@@ -26,9 +26,10 @@ from runtime_cl.camera import from_header
 
 from ..config import from_table
 from ..errors import UserError
+from ..motion import check_vector
 from runtime_cl.registry import Registry
 
-__all__ = ["Camera", "Vec3", "camera_names", "get_camera", "header_camera", "parse_camera",
+__all__ = ["Camera", "Vec3", "camera_names", "get_camera", "header_camera", "motion_plan", "parse_camera",
            "register_camera"]
 
 Vec3 = tuple[float, float, float]
@@ -52,6 +53,10 @@ class Camera(abc.ABC):
         look-at frame is right-handed: looking along +z with up +y, world +x is on the image's left.
     sensor_width_mm : float
         Sensor width (default 36 mm); the image width spans it.
+    shutter : (float, float)
+        Shutter open and close times (default [0, 1]; :mod:`lab.motion` says what moves).
+    velocity : (3,) float, optional
+        Linear camera motion in metres per time unit (the view direction stays).
     """
 
     name: ClassVar[str]
@@ -61,10 +66,17 @@ class Camera(abc.ABC):
     look_at: Vec3
     up: Vec3 = (0.0, 1.0, 0.0)
     sensor_width_mm: float = 36.0
+    shutter: tuple[float, float] = (0.0, 1.0)
+    velocity: Vec3 | None = None
 
     def __post_init__(self):
         if self.model != self.name:
             raise ValueError(f"model = {self.model!r}: a {type(self).__name__} is model {self.name!r}")
+        for key in ("position", "look_at", "up", "velocity"):
+            check_vector(key, getattr(self, key))
+        if not (all(math.isfinite(t) for t in self.shutter) and self.shutter[0] <= self.shutter[1]):
+            raise UserError(f"shutter = {list(self.shutter)}: give [open, close] as finite times with "
+                            "open <= close, e.g. shutter = [0, 1]")
         view = np.subtract(self.look_at, self.position)
         if not np.linalg.norm(view) > 0:
             raise UserError(f"look_at = {list(self.look_at)} equals position; look at another point")
@@ -106,6 +118,15 @@ class Camera(abc.ABC):
         """Horizontal field of view in degrees (a thin lens includes focus breathing)."""
         return self.runtime_camera().fov_x_deg()
 
+    def position_at(self, t: float) -> np.ndarray:
+        """The camera position (metres) at time t: ``position + velocity * t``."""
+        v = np.zeros(3) if self.velocity is None else np.asarray(self.velocity, dtype=np.float64)
+        return np.asarray(self.position, dtype=np.float64) + v * t
+
+    def header_shutter(self) -> list[float]:
+        """The header's ``"shutter"``: [open, close] as the scene gives them."""
+        return [float(self.shutter[0]), float(self.shutter[1])]
+
     def forward(self) -> np.ndarray:
         """Unit optical axis (world space): depth Z is measured along it."""
         view = np.subtract(self.look_at, self.position, dtype=np.float64)
@@ -139,6 +160,25 @@ class Camera(abc.ABC):
     def mitsuba_sensor(self, sensor: dict) -> dict:
         """This camera's Mitsuba sensor dict, from ``sensor``: a ``perspective`` sensor with the
         same view (look-at frame, horizontal fov), film and sampler (not modified)."""
+
+
+def motion_plan(scene, dof: str) -> dict:
+    """The plan rule of a moving scene seen through a round thin lens or a pinhole (``dof``
+    describes it): LSR18's Combined PSFs (defocus + linear motion capsules) through the spreadlet
+    passes, against Mitsuba sub-frames through the camera's own sensor (:mod:`lab.reference.motion`)."""
+    from ..plan import Step
+
+    r = scene.render
+    return {
+        "dof": dof,
+        "aperture": "circle" if dof != "none" else "none (pinhole)",
+        "psf_models": ("combined",),
+        "references": (Step("mitsuba_motion", f"Mitsuba sub-frames over the shutter (one per pixel of the "
+                                              f"largest motion), {r.reference_spp} spp in all, max depth "
+                                              f"{r.max_depth}"),),
+        "runtime_passes": ("spreadlets", "splat", "filter"),
+        "skipped": (),
+    }
 
 
 def parse_camera(table: dict, where: str) -> Camera:

@@ -3,10 +3,11 @@
 - Scene keys: exactly one of ``fov_deg`` (horizontal) and ``focal_length_mm`` (with the sensor
   width); the lens keys of a thin lens are an error that says so.
 - Runtime twin: :class:`runtime_cl.camera.pinhole.Pinhole` (CoC 0 everywhere).
-- Header: ``{"lens": "pinhole", "fov_x_deg": ..., "shutter": [0, 1]}``.
+- Header: ``{"lens": "pinhole", "fov_x_deg": ..., "shutter": [open, close]}``.
 - Plan: no defocus, so no PSF database; the pinhole render is its own reference and the runtime
   pass is ``identity``. With a ``[medium]`` (:class:`lab.medium.Medium`): the ``volume`` PSF model
-  through the spreadlet passes against a Mitsuba ``volpath`` reference through the medium.
+  through the spreadlet passes against a Mitsuba ``volpath`` reference through the medium; a
+  moving scene the ``combined`` model (CoC 0) against sub-frames (:func:`~lab.cameras.base.motion_plan`).
 - Mitsuba: the ``perspective`` sensor itself.
 """
 from __future__ import annotations
@@ -17,8 +18,9 @@ from dataclasses import dataclass
 from runtime_cl.camera.pinhole import Pinhole
 
 from ..errors import UserError
+from ..motion import scene_moves
 from ..plan import Step
-from .base import Camera, register_camera
+from .base import Camera, motion_plan, register_camera
 
 # Keys of a lens aperture (model = "thin"), named in the error a pinhole gives for them.
 LENS_KEYS = ("f_number", "aperture_radius_mm", "focus_distance_m", "aperture")
@@ -64,10 +66,15 @@ class PinholeCamera(Camera):
         return Pinhole(fov_deg=fov)
 
     def camera_json(self) -> dict:
-        return {**self.runtime_camera().to_json(), "shutter": [0.0, 1.0]}
+        return {**self.runtime_camera().to_json(), "shutter": self.header_shutter()}
 
     def plan(self, scene) -> dict:
         r = scene.render
+        if scene_moves(scene):
+            if scene.medium is not None:
+                raise UserError(f"{scene.source} [medium]: the scene moves and has a medium; no PSF model "
+                                "combines motion and scattering: remove [medium] or the velocities")
+            return motion_plan(scene, "none")
         if scene.medium is not None:
             return {
                 "dof": "none",

@@ -29,6 +29,7 @@ from runtime_cl.camera.thick_lens import ROW, ThickLens
 from runtime_cl.camera.thick_lens import surface_rows as runtime_surface_rows
 
 from ..errors import UserError
+from ..motion import scene_moves
 from ..optics.glass import LINE_D_NM, get_glass
 from ..optics.lenses import LENSES, lens_names
 from ..plan import Step
@@ -154,7 +155,7 @@ class ThickCamera(Camera):
                          chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm)
 
     def camera_json(self) -> dict:
-        return {**self.runtime_camera().to_json(), "shutter": [0.0, 1.0]}
+        return {**self.runtime_camera().to_json(), "shutter": self.header_shutter()}
 
     @classmethod
     def check_header(cls, data: dict, source: str) -> None:
@@ -179,6 +180,10 @@ class ThickCamera(Camera):
             raise UserError(f"{scene.source} [medium]: a medium with a thick lens; no PSF model combines the lens "
                             "and scattering (LSR18's Volume PSFs are a pinhole's): set [camera] model = \"pinhole\" "
                             "for fog, or remove [medium]")
+        if scene_moves(scene):
+            raise UserError(f"{scene.source} [camera] model = \"thick\": the scene moves, and no PSF model combines "
+                            "the thick lens and motion (physical_lens is a still lens): remove the velocities, or set "
+                            "model = \"thin\" for motion blur")
         self.check_sensor(scene.width, scene.height, f"{scene.source} [camera]")
         r = scene.render
         nm = "/".join(f"{w:g}" for w in WAVELENGTHS_NM)

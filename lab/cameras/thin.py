@@ -9,7 +9,8 @@
   change its CoC).
 - Header: the twin's JSON, the iris or the shape as ``"aperture"``, the shutter.
 - Plan: a round aperture runs the spreadlet passes on a ``simple_lens`` database against
-  Mitsuba's ``thinlens``; an iris runs MHU21's exact polygon passes (no PSF database), a shape
+  Mitsuba's ``thinlens`` (a moving scene: a ``combined`` database against sub-frames, see
+  :func:`lab.cameras.base.motion_plan`); an iris runs MHU21's exact polygon passes (no PSF database), a shape
   the spreadlet passes on a ``stylized`` database, both against the same lens through that
   aperture (:mod:`lab.reference.aperture_lens`).
 """
@@ -23,9 +24,10 @@ from runtime_cl.camera.thin_lens import ThinLens
 
 from ..config import from_table
 from ..errors import UserError
+from ..motion import scene_moves
 from ..optics.iris import Iris
 from ..plan import Step
-from .base import Camera, register_camera
+from .base import Camera, motion_plan, register_camera
 from .shaped_aperture import SHAPES, ShapedAperture
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
@@ -114,7 +116,7 @@ class ThinCamera(Camera):
         shape = self.iris() or self.shaped()
         if shape is not None:
             data["aperture"] = shape.to_json()
-        data["shutter"] = [0.0, 1.0]
+        data["shutter"] = self.header_shutter()
         return data
 
     @classmethod
@@ -133,6 +135,12 @@ class ThinCamera(Camera):
             raise UserError(f"{scene.source} [medium]: a medium with a thin lens; no PSF model combines "
                             "defocus and scattering (LSR18's Volume PSFs are a pinhole's): set [camera] "
                             "model = \"pinhole\" for fog, or remove [medium]")
+        if scene_moves(scene):
+            if self.aperture is not None:
+                raise UserError(f"{scene.source} [camera] aperture = {self.aperture!r}: the scene moves, and the "
+                                "motion-blur model (combined) traces a round aperture; remove the aperture "
+                                "table, or the velocities")
+            return motion_plan(scene, self._dof())
         if self.iris() is not None:
             return self._plan_iris(scene)
         if self.shaped() is not None:

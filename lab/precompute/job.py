@@ -20,12 +20,10 @@ from tqdm import tqdm
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.errors import InputError
 
-from lab.errors import UserError
+from lab.parallel import Executor
 
-from .cell import CellJob
 from .consolidate import consolidate
-from .executors import (check_scheduler, check_workers, connect, run_dask, run_processes, run_serial,
-                        usable_cores)
+from .executors import run_cells
 from .naming import content_hash, database_path, shard_dir, source_digest
 from .shards import shard_ok
 
@@ -62,12 +60,6 @@ class PrecomputeResult:
     sparsify_seconds: float
     cells: int = 0
     executor: str = "serial"
-
-
-def _check_threads(threads) -> int | None:
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
-        raise UserError(f"--threads {threads!r}: must be an integer >= 1 (Dr.Jit threads per worker)")
-    return threads
 
 
 def _reusable(out: Path, name: str) -> bool:
@@ -111,13 +103,7 @@ def precompute(model, *, force: bool = False, progress: bool = True, workers: in
         unreachable scheduler, or a cell the model rejects.
     """
     t_start = time.perf_counter()
-    check_workers(workers)
-    _check_threads(threads)
-    if scheduler is not None:
-        check_scheduler(scheduler)
-        if workers != 1:
-            raise UserError(f"--workers {workers} with --scheduler {scheduler}: choose one; the "
-                            "cluster's workers are started with `dask worker`")
+    executor = Executor(workers, scheduler, threads)
     code = source_digest(model.name)
     digest = content_hash(model.name, model.config, code)
     out = database_path(model.name, digest)
@@ -131,25 +117,13 @@ def precompute(model, *, force: bool = False, progress: bool = True, workers: in
     n = model.grid.size
     cost = [model.rays_for_cell(c) for c in range(n)]
     todo = sorted((c for c in range(n) if not shard_ok(folder, c)), key=lambda c: -cost[c])
-    client = connect(scheduler) if scheduler is not None and todo else None
-    if client is not None:
-        cells_iter = run_dask(CellJob(model.name, model.config, code, threads), folder, todo, client)
-        executor = "dask"
-    elif workers > 1 and len(todo) > 1:
-        per_worker = threads or max(1, usable_cores() // workers)
-        cells_iter = run_processes(CellJob(model.name, model.config, code, per_worker), folder, todo,
-                                   min(workers, len(todo)))
-        executor = "processes"
-    else:
-        cells_iter = run_serial(model, folder, todo, threads)
-        executor = "serial"
-
     done_cost = sum(cost) - sum(cost[c] for c in todo)
     rays = 0
     trace_s = sparsify_s = 0.0
-    with tqdm(total=sum(cost), initial=done_cost, unit="ray", unit_scale=True, dynamic_ncols=True,
-              desc=f"precompute {model.name}", disable=not progress) as bar:
+    with executor, tqdm(total=sum(cost), initial=done_cost, unit="ray", unit_scale=True,
+                        dynamic_ncols=True, desc=f"precompute {model.name}", disable=not progress) as bar:
         bar.set_postfix_str(f"PSF {n - len(todo)}/{n}")
+        executor_kind, cells_iter = run_cells(executor, model, code, folder, todo)
         try:
             for k, s in enumerate(cells_iter, start=1):
                 rays += s["rays"]
@@ -159,9 +133,7 @@ def precompute(model, *, force: bool = False, progress: bool = True, workers: in
                 bar.set_postfix_str(f"PSF {n - len(todo) + k}/{n}", refresh=False)
         finally:
             cells_iter.close()
-            if client is not None:
-                client.close()
     consolidate(model, digest, folder, out)
     shutil.rmtree(folder, ignore_errors=True)  # the database now holds everything
     return PrecomputeResult(out, False, time.perf_counter() - t_start, rays, trace_s, sparsify_s,
-                            len(todo), executor)
+                            len(todo), executor_kind)

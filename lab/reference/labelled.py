@@ -5,6 +5,8 @@ Z is the camera-space planar depth at each pixel centre: one ray per pixel centr
 Z = dot(hit - camera position, optical axis). (The sensor moves ray origins to the near-clip
 plane, so the hit distance ``t`` alone is not measured from the camera; the hit point is.)
 Rays that miss give Z = inf and A = 0; A = 1 where the centre ray hits a surface.
+A moving scene is shown at mid-shutter, with ``motion.X``, ``motion.Y`` from
+:func:`lab.reference.motion.motion_vectors`.
 """
 from __future__ import annotations
 
@@ -13,11 +15,25 @@ import numpy as np
 from ..exr_io import LabelledImage
 from ..scene import Scene
 from .backend import mitsuba
+from ..motion import mid_shutter, scene_moves
 from .layered import render_layers
+from .motion import Animator, motion_vectors
 from .render import load, render_passes
 
 
-def pixel_centre_hits(scene: Scene, mi_scene=None):
+def _centre_interactions(scene: Scene, mi_scene):
+    """Mitsuba's surface interactions of one pinhole ray per pixel centre (row-major)."""
+    mi = mitsuba()
+    import drjit as dr
+
+    w, h = scene.width, scene.height
+    idx = dr.arange(mi.UInt32, w * h)
+    pos = mi.Point2f((mi.Float(idx % w) + 0.5) / w, (mi.Float(idx // w) + 0.5) / h)
+    ray, _ = mi_scene.sensors()[0].sample_ray(mi.Float(0.0), mi.Float(0.5), pos, mi.Point2f(0.5, 0.5))
+    return mi_scene.ray_intersect(ray)
+
+
+def pixel_centre_hits(scene: Scene, mi_scene=None, shapes: bool = False):
     """Hit points of one pinhole ray per pixel centre.
 
     Returns
@@ -26,26 +42,30 @@ def pixel_centre_hits(scene: Scene, mi_scene=None):
         World-space hit points (undefined where ``valid`` is False).
     valid : (H, W) bool
         True where the ray hits a surface.
+    shape_ids : (H, W) uint32
+        Only with ``shapes``: Mitsuba's id of the shape hit (``dr.reinterpret_array(UInt32, ShapePtr)``).
     """
-    mi = mitsuba()
     import drjit as dr
 
     mi_scene = load(scene, "pinhole") if mi_scene is None else mi_scene
-    w, h = scene.width, scene.height
-    idx = dr.arange(mi.UInt32, w * h)
-    pos = mi.Point2f((mi.Float(idx % w) + 0.5) / w, (mi.Float(idx // w) + 0.5) / h)
-    ray, _ = mi_scene.sensors()[0].sample_ray(mi.Float(0.0), mi.Float(0.5), pos, mi.Point2f(0.5, 0.5))
-    si = mi_scene.ray_intersect(ray)
-    points = np.stack([np.asarray(si.p[i], dtype=np.float64) for i in range(3)], axis=-1)
-    valid = np.asarray(si.is_valid(), dtype=bool)
-    return points.reshape(h, w, 3), valid.reshape(h, w)
+    si = _centre_interactions(scene, mi_scene)
+    h, w = scene.height, scene.width
+    points = np.stack([np.asarray(si.p[i], dtype=np.float64) for i in range(3)], axis=-1).reshape(h, w, 3)
+    valid = np.asarray(si.is_valid(), dtype=bool).reshape(h, w)
+    if not shapes:
+        return points, valid
+    return points, valid, np.asarray(dr.reinterpret_array(mitsuba().UInt32, si.shape)).reshape(h, w)
 
 
-def planar_depth(scene: Scene, mi_scene=None) -> np.ndarray:
-    """(H, W) float32 planar camera depth in metres at pixel centres; ``inf`` where nothing is hit."""
-    points, valid = pixel_centre_hits(scene, mi_scene)
+def planar_depth(scene: Scene, mi_scene=None, hits=None, t: float = 0.0) -> np.ndarray:
+    """(H, W) float32 planar camera depth in metres at pixel centres; ``inf`` where nothing is hit.
+
+    ``hits``: the :func:`pixel_centre_hits` of ``mi_scene`` if already traced; ``t``: the shutter
+    time the scene shows (the camera may move).
+    """
+    points, valid = pixel_centre_hits(scene, mi_scene) if hits is None else hits
     cam = scene.camera
-    z = (points - np.asarray(cam.position, dtype=np.float64)) @ cam.forward()
+    z = (points - cam.position_at(t)) @ cam.forward()
     return np.where(valid, z, np.inf).astype(np.float32)
 
 
@@ -72,10 +92,21 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
         (:mod:`lab.reference.layered`, same spp).
     """
     mi_scene = load(scene, "pinhole")
+    moves = scene_moves(scene)
+    t = mid_shutter(scene.camera) if moves else 0.0
+    if moves:
+        Animator(scene, mi_scene).set_time(t)
     spp = scene.render.input_spp if spp is None else spp
     rgb = render_passes(mi_scene, spp, scene.render.seed, "input", pass_spp, progress,
                         desc=f"input {scene.name}")
-    z = planar_depth(scene, mi_scene)
+    points, valid, shape_ids = pixel_centre_hits(scene, mi_scene, shapes=True)
+    z = planar_depth(scene, hits=(points, valid), t=t)
     alpha = np.isfinite(z).astype(np.float32)
-    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=scene.camera.camera_json(),
-                         extra=render_layers(scene, spp, pass_spp, progress))
+    extra = render_layers(scene, spp, pass_spp, progress)
+    if moves:
+        flow = motion_vectors(scene, mi_scene, points, valid, shape_ids)
+        extra.update({"motion.X": flow[..., 0], "motion.Y": flow[..., 1]})
+    header = scene.camera.camera_json()
+    if scene.medium is not None:
+        header["medium"] = scene.medium.header_json()   # the runtime adds it: the pixels are without it
+    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=header, extra=extra)

@@ -7,9 +7,20 @@ result is the per-channel weighted mean of the pass images, accumulated in float
 order (:func:`average`), so it does not depend on where or in which order the passes ran.
 
 Subclasses change what a pass is: :mod:`lab.reference.motion` (sub-frames), the thick-lens
-sensor (one wavelength per channel). Executors (serial here; processes or Dask elsewhere) only
-call ``job.render(p)`` for each ``p`` in ``job.passes()`` and add the images to an
-:class:`Accumulator` in pass order.
+sensor (one wavelength per channel). Executors (serial here; local processes or Dask in
+:mod:`lab.reference.execute`) only call ``job.render(p)`` for each ``p`` in ``job.passes()``
+and add the images to an :class:`Accumulator` in pass order.
+
+A pass image must also not depend on the Dr.Jit thread count of the process that renders it
+(a worker has fewer threads than a serial run). Mitsuba adds each sample into its pixel with an
+atomic float add; Dr.Jit splits a launch into work blocks, one thread each: 16384 lanes for
+launches of more than ``2 * 16384 * threads`` lanes, otherwise blocks sized by the thread count
+in whole SIMD packets (4, 8 or 16 lanes). A pixel's ``spp`` consecutive samples summed by two
+threads come out in a scheduling-dependent order (measured: a few pixels per pass differ in the
+last bits at 7 or 12 spp, and at 32 spp on 25x23 pixels). They stay in one block, so in one
+thread's fixed order, when ``spp`` is a power of two and either at most 4 (within one SIMD
+packet) or the launch has at least :data:`FIXED_BLOCK_LANES` samples (fixed blocks, for up to
+128 threads). :func:`split_spp` makes such passes and :class:`RenderPass` refuses other ``spp``.
 """
 from __future__ import annotations
 
@@ -21,9 +32,13 @@ from tqdm import tqdm
 from ..scene import Scene
 from .backend import mitsuba
 
-__all__ = ["Accumulator", "RenderPass", "RenderJob", "average", "pass_seeds", "split_spp", "MAX_SAMPLES_PER_PASS"]
+__all__ = ["Accumulator", "RenderPass", "RenderJob", "average", "pass_seeds", "split_spp", "MAX_SAMPLES_PER_PASS",
+           "FIXED_BLOCK_LANES"]
 
 MAX_SAMPLES_PER_PASS = 1 << 24  # 16 spp at 1024^2
+FIXED_BLOCK_LANES = 1 << 22     # 2 * 16384 lanes * 128 threads: Dr.Jit's fixed-size work blocks
+_DRJIT_BLOCK = 1 << 14          # lanes per work block of a large launch
+_SIMD_SAFE_SPP = 4              # samples that always fit one SIMD packet
 STREAMS = {"reference": 0, "input": 1, "layers": 2}
 
 
@@ -42,8 +57,12 @@ def pass_seeds(seed: int, stream: str, n_passes: int) -> list[int]:
     return [int(s) for s in states]
 
 
+def _power_of_two(n) -> bool:
+    return isinstance(n, int) and n >= 1 and n & (n - 1) == 0
+
+
 def split_spp(spp: int, width: int, height: int, pass_spp: int | None = None) -> list[int]:
-    """Split ``spp`` samples per pixel into passes.
+    """Split ``spp`` samples per pixel into passes whose images do not depend on the thread count.
 
     Parameters
     ----------
@@ -52,20 +71,29 @@ def split_spp(spp: int, width: int, height: int, pass_spp: int | None = None) ->
     width, height : int
         Image size in pixels.
     pass_spp : int, optional
-        Samples per pass; default: as many as fit in ``MAX_SAMPLES_PER_PASS`` samples.
+        Samples per pass, a power of two; default: the largest power of two (at most 16384) whose
+        pass fits in ``MAX_SAMPLES_PER_PASS`` samples.
 
     Returns
     -------
     list of int
-        Full passes then the remainder, summing to ``spp``.
+        Full passes, then the remainder as descending powers of two, summing to ``spp``. A pass of
+        more than 4 spp with fewer than :data:`FIXED_BLOCK_LANES` samples is split into 4-spp
+        passes (see the module docstring).
     """
     if spp < 1:
         raise ValueError(f"spp = {spp} must be >= 1")
     if pass_spp is None:
-        pass_spp = max(1, MAX_SAMPLES_PER_PASS // (width * height))
-    pass_spp = max(1, min(pass_spp, spp))
+        fit = max(1, MAX_SAMPLES_PER_PASS // (width * height))
+        pass_spp = min(_DRJIT_BLOCK, 1 << (fit.bit_length() - 1))
+    elif not _power_of_two(pass_spp) or pass_spp > _DRJIT_BLOCK:
+        raise ValueError(f"pass_spp = {pass_spp} must be a power of two (1, 2, 4, ..., {_DRJIT_BLOCK}), "
+                         "so that each pass image is the same whatever Dr.Jit thread count renders it")
     n, rest = divmod(spp, pass_spp)
-    return [pass_spp] * n + ([rest] if rest else [])
+    chunks = [pass_spp] * n + [1 << b for b in reversed(range(rest.bit_length())) if rest >> b & 1]
+    return [part for c in chunks for part in (
+        [_SIMD_SAFE_SPP] * (c // _SIMD_SAFE_SPP) if c > _SIMD_SAFE_SPP and width * height * c < FIXED_BLOCK_LANES
+        else [c])]
 
 
 @dataclass(frozen=True)
@@ -92,6 +120,12 @@ class RenderPass:
     seed: int
     weight: tuple[float, float, float]
     variant: tuple = ()
+
+    def __post_init__(self):
+        if not _power_of_two(self.spp) or self.spp > _DRJIT_BLOCK:
+            raise ValueError(f"pass {self.index}: spp = {self.spp!r} must be a power of two <= "
+                             f"{_DRJIT_BLOCK} (lab.reference.passes.split_spp makes such passes), "
+                             "or its image depends on the Dr.Jit thread count that renders it")
 
     def get(self, key: str, default=None):
         """The variant's value for ``key``."""

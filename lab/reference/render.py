@@ -58,10 +58,9 @@ def load(scene: Scene, sensor: str = "scene", medium: bool = False):
     return mitsuba().load_dict(scene_dict(scene, sensor, medium=medium))
 
 
-def render_reference(scene: Scene, spp: int | None = None, pass_spp: int | None = None,
-                     progress: bool = True) -> np.ndarray:
+def reference_job(scene: Scene, spp: int | None = None, pass_spp: int | None = None) -> RenderJob:
     """The path-traced reference through the scene's own camera (thin lens or pinhole), and
-    through the scene's ``[medium]`` if it has one (``volpath``).
+    through the scene's ``[medium]`` if it has one (``volpath``), as a job of seeded passes.
 
     Parameters
     ----------
@@ -69,17 +68,19 @@ def render_reference(scene: Scene, spp: int | None = None, pass_spp: int | None 
     spp : int, optional
         Samples per pixel; default ``scene.render.reference_spp``.
     pass_spp : int, optional
-        Samples per pass; default keeps a pass at <= 2^24 samples (16 spp at 1024^2).
-    progress : bool
-        Show a tqdm bar on stderr.
-
-    Returns
-    -------
-    (H, W, 3) float32 linear radiance.
+        Samples per pass (a power of two); default keeps a pass at <= 2^24 samples (16 spp at
+        1024^2), see :func:`~lab.reference.passes.split_spp`.
     """
     spp = scene.render.reference_spp if spp is None else spp
     return RenderJob(scene, spp, "reference", "scene", medium=True, pass_spp=pass_spp,
-                     desc=f"reference {scene.name}").run(progress)
+                     desc=f"reference {scene.name}")
+
+
+def render_reference(scene: Scene, spp: int | None = None, pass_spp: int | None = None,
+                     progress: bool = True) -> np.ndarray:
+    """:func:`reference_job` rendered here, pass after pass (tqdm bar on stderr if ``progress``).
+    (H, W, 3) float32 linear radiance."""
+    return reference_job(scene, spp, pass_spp).run(progress)
 
 
 def render_pinhole(scene: Scene, spp: int | None = None, pass_spp: int | None = None,

@@ -2,7 +2,8 @@
 
 A pinhole has no aperture, so every point images to a point: the circle of confusion is 0 at
 every depth and a pinhole image needs no defocus pass. The header (``"lens": "pinhole"``) only
-records the horizontal field of view, which places the pixels.
+records the horizontal field of view, which places the pixels, and for a scene in fog the
+``"medium"`` the runtime adds (the input is rendered without it).
 """
 from __future__ import annotations
 
@@ -19,6 +20,20 @@ from runtime_cl.errors import InputError
 def _check_fov(value, where: str) -> None:
     if not (isinstance(value, (int, float)) and 0 < value < 180):
         raise InputError(f"{where} = {value!r} must be a number of degrees in (0, 180)")
+
+
+def _check_medium(value, where: str) -> None:
+    """The header's ``"medium"`` (the fog a volume database adds): sigma_t > 0, albedo in [0, 1]^3,
+    g in (-1, 1)."""
+    fix = 'write it as {"sigma_t": 0.25, "albedo": [0.9, 0.9, 0.85], "g": 0.6}'
+    if not isinstance(value, dict) or set(value) != {"sigma_t", "albedo", "g"}:
+        raise InputError(f"{where} = {value!r}: {fix}")
+    num = (lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v))
+    albedo = value["albedo"]
+    if not (num(value["sigma_t"]) and value["sigma_t"] > 0 and num(value["g"]) and -1 < value["g"] < 1
+            and isinstance(albedo, list) and len(albedo) == 3 and all(num(a) and 0 <= a <= 1 for a in albedo)):
+        raise InputError(f"{where} = {value!r}: sigma_t > 0 per metre, albedo three numbers in [0, 1], "
+                         f"g in (-1, 1); {fix}")
 
 
 @register_lens("pinhole")
@@ -59,8 +74,10 @@ class Pinhole:
         """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
         if data.get("lens") != cls.lens:
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
-        unknown = sorted(set(data) - {"lens", "fov_x_deg", "shutter"})
+        unknown = sorted(set(data) - {"lens", "fov_x_deg", "shutter", "medium"})
         if unknown:
-            raise InputError(f"{source}: unknown key(s) {unknown} for a pinhole; known: fov_x_deg, shutter")
+            raise InputError(f"{source}: unknown key(s) {unknown} for a pinhole; known: fov_x_deg, shutter, medium")
         _check_fov(data.get("fov_x_deg"), f"{source}: fov_x_deg")
+        if "medium" in data:
+            _check_medium(data["medium"], f"{source}: medium")
         return cls(fov_deg=data["fov_x_deg"])

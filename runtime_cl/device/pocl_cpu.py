@@ -11,7 +11,12 @@ kernel library PoCL loads on this host (``x86-64-v4`` for its AVX-512 library, `
 for AVX2; names LLVM 14 knows, from its own string table). The function's bytes are checked
 first against the PoCL 3.0 build this was written for (any other is refused); the file is
 replaced atomically, the original kept beside it (``--restore`` puts it back). A CPU that
-LLVM 14 knows builds kernels as it is, and nothing is patched.
+LLVM 14 knows builds kernels as it is, and nothing is patched -- unless LLVM 14 names it after
+an older CPU without the vector extension of the kernel library PoCL loads: an AMD Zen 4 (family
+25, like Zen 3) is ``znver3`` to LLVM 14, no AVX-512, while PoCL loads its AVX-512 library for
+the host's ``avx512f`` flag. Kernels then build against the wrong vector ABI (some fail with
+``INVALID_KERNEL_NAME``, others compute garbage), and ``--patch`` names the level here too
+(:func:`mismatch`).
 """
 from __future__ import annotations
 
@@ -27,7 +32,7 @@ from pathlib import Path
 
 from runtime_cl.atomic_file import atomic_path
 
-__all__ = ["probe", "problem", "cpu_level", "host_flags", "patch_bytes", "patched_name", "patch_library",
+__all__ = ["probe", "problem", "built_cpu", "mismatch", "cpu_level", "host_flags", "patch_bytes", "patched_name", "patch_library",
            "restore_library", "backup_path", "FIX"]
 
 SYMBOL = "pocl_get_llvm_cpu_name"
@@ -44,7 +49,12 @@ _ORIGINAL = (bytes.fromhex("55534883ec08e8"), None,
              bytes.fromhex("4889da4889ee4889c7e8"), None,
              bytes.fromhex("c60418004883c4085b5dc30f1f840000000000"
                            "bf08000000bb07000000488d2d"), None, bytes.fromhex("ebc7"))
-_JUMP = bytes.fromhex("eb38909090")  # at +0x06: jmp +0x40 (the empty-name branch), nops
+_JUMP = bytes.fromhex("eb38909090")
+# LLVM 14's CPU names whose feature set includes AVX-512F (X86.td): the only names a host whose
+# PoCL loads the avx512f kernel library may build for.
+_AVX512_CPUS = frozenset({"knl", "knm", "skylake-avx512", "cascadelake", "cooperlake", "cannonlake",
+                          "icelake-client", "icelake-server", "rocketlake", "tigerlake", "sapphirerapids",
+                          "x86-64-v4"})  # at +0x06: jmp +0x40 (the empty-name branch), nops
 # PoCL loads the kernel library built for the host's vector extension (avx512, avx2, ...; its
 # own feature test), and the target CPU must have the same ones: code built for fewer passes
 # vectors to that library in other registers and computes garbage (seen here with x86-64-v3 on
@@ -88,12 +98,34 @@ def probe() -> dict:
     return json.loads(run.stdout.strip().splitlines()[-1])
 
 
+def built_cpu(device_version: str | None) -> str | None:
+    """The CPU name PoCL compiles for, from its device version (``... HSTR: pthread-x86_64-
+    unknown-linux-gnu-znver3``), None if the version does not say."""
+    if not device_version or "HSTR:" not in device_version:
+        return None
+    parts = device_version.split("HSTR:", 1)[1].strip().split("-", 5)   # pthread-arch-vendor-os-env-cpu
+    return parts[5].strip() if len(parts) == 6 and parts[5].strip() else None
+
+
+def mismatch(state: dict, flags) -> str | None:
+    """The CPU name PoCL builds for when it lacks AVX-512 on a host whose flags make PoCL load
+    its AVX-512 kernel library (the vector ABIs differ), else None."""
+    name = built_cpu(state.get("device"))
+    if name is None or "avx512f" not in set(flags) or name in _AVX512_CPUS:
+        return None
+    return name
+
+
 def problem(state: dict | None = None) -> str | None:
-    """None when PoCL builds kernels (``state`` from :func:`probe`, probed if not given), else
-    one line saying why and what to do."""
+    """None when PoCL builds kernels right (``state`` from :func:`probe`, probed if not given),
+    else one line saying why and what to do."""
     state = probe() if state is None else state
     if state["ok"]:
-        return None
+        wrong = mismatch(state, host_flags())
+        if wrong is None:
+            return None
+        return (f"PoCL's LLVM 14 builds for {wrong!r}, a CPU without the AVX-512 of the kernel library it "
+                f"loads on this host: kernels would fail or compute garbage; fix it: {FIX}")
     if UNKNOWN_CPU in (state["error"] or ""):
         return f"PoCL's LLVM 14 does not know this CPU, no kernel builds; fix it: {FIX}"
     return f"PoCL cannot build a kernel: {state['error']}"
@@ -238,7 +270,8 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     what = ap.add_mutually_exclusive_group()
     what.add_argument("--patch", action="store_true",
-                      help="patch libpocl when its LLVM cannot name this CPU (else only report)")
+                      help="patch libpocl when its LLVM cannot name this CPU, or names one without the "
+                           "AVX-512 of its kernel library (else only report)")
     what.add_argument("--restore", action="store_true",
                       help="put back the libpocl that --patch saved as <library>.unpatched")
     args = ap.parse_args(argv)
@@ -249,11 +282,12 @@ def main(argv=None) -> int:
             return 1
         print(f"restored {state['library']}")
         return 0
-    if state["ok"]:
+    wrong = mismatch(state, host_flags()) if state["ok"] else None
+    if state["ok"] and wrong is None:
         print(f"PoCL builds kernels: {state['device']}")
         return 0
     error = state["error"] or ""
-    if UNKNOWN_CPU not in error:
+    if wrong is None and UNKNOWN_CPU not in error:
         print(problem(state), file=sys.stderr)
         return 1
     level = cpu_level(host_flags())
@@ -262,8 +296,9 @@ def main(argv=None) -> int:
               "patch can name; install a PoCL built with a newer LLVM", file=sys.stderr)
         return 1
     if not args.patch:
-        why = next(line.strip() for line in error.splitlines() if UNKNOWN_CPU in line)
-        print(f"PoCL's LLVM 14 does not know this CPU ({why}); "
+        why = (f"it builds for {wrong!r}, without the AVX-512 of its kernel library" if wrong else
+               next(line.strip() for line in error.splitlines() if UNKNOWN_CPU in line))
+        print(f"PoCL's LLVM 14 {'misnames' if wrong else 'does not know'} this CPU ({why}); "
               f"run `{FIX}` to make it use {level}", file=sys.stderr)
         return 1
     if state["library"] is None:
@@ -275,7 +310,7 @@ def main(argv=None) -> int:
         print(f"{state['library']}: cannot patch: {exc}", file=sys.stderr)
         return 1
     after = probe()
-    if not after["ok"]:
+    if not after["ok"] or mismatch(after, host_flags()):
         print(f"patched {state['library']} to {level}, but PoCL still fails: {after['error']}",
               file=sys.stderr)
         return 1

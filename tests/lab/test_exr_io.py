@@ -17,7 +17,8 @@ def image(h=6, w=7, seed=0):
     z = rng.uniform(0.5, 20, (h, w)).astype(np.float32)
     z[0, 0] = np.inf  # background at infinity is valid
     return LabelledImage(rgb=rng.random((h, w, 3), dtype=np.float32), alpha=np.ones((h, w), np.float32),
-                         depth=z, camera=dict(THIN), extra={"motion.X": rng.random((h, w), dtype=np.float32)})
+                         depth=z, camera=dict(THIN), extra={"motion.X": rng.random((h, w), dtype=np.float32),
+                                                           "motion.Y": rng.random((h, w), dtype=np.float32)})
 
 
 def raw_exr(path, channels, header=None):
@@ -192,3 +193,22 @@ def test_header_iris_is_checked(tmp_path):
                                     "Z": image().depth}, {"splatlab.camera": json.dumps(bad)})
     with pytest.raises(UserError, match=r"iris.exr header 'splatlab.camera' aperture: unknown key\(s\) \['rotaton_deg'\]"):
         read_labelled(tmp_path / "iris.exr")
+
+
+def _channels(im):
+    out = {c: im.rgb[..., i] for i, c in enumerate("RGB")}
+    out.update(A=im.alpha, Z=im.depth, **im.extra)
+    return out
+
+
+@pytest.mark.parametrize("change, needle", [
+    (lambda c: c.pop("motion.Y"), "motion.X without its partner"),
+    (lambda c: c["motion.X"].__setitem__((2, 3), np.nan), "motion.X are NaN or infinite, first at (x=3, y=2)"),
+])
+def test_bad_motion_channels(tmp_path, change, needle):
+    channels = {k: np.array(v) for k, v in _channels(image()).items()}
+    change(channels)
+    raw_exr(tmp_path / "m.exr", channels, {"splatlab.camera": json.dumps(THIN)})
+    with pytest.raises(UserError) as err:
+        read_labelled(tmp_path / "m.exr")
+    assert needle in str(err.value) and str(tmp_path / "m.exr") in str(err.value)

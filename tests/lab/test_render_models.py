@@ -67,5 +67,5 @@ def test_render_names_a_missing_motion_channel(combined_db, tmp_path, capsys):
     assert main(["render", str(path), "--db", str(combined_db), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1
-    assert str(path) in err and "['motion.Y'] missing" in err and "'combined'" in err
+    assert str(path) in err and "motion.X without its partner" in err and "motion.Y" in err
     assert not out.exists()

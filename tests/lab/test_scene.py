@@ -195,11 +195,14 @@ def test_load_camera_from_scene_or_camera_file(tmp_path):
         load_camera(write(tmp_path, "[render]\nseed = 1\n", "r.toml"))
 
 
-@pytest.mark.parametrize("name", ["demo.toml", "tiny.toml"])
-def test_shipped_scenes_load(name):
+@pytest.mark.parametrize("name", sorted(p.name for p in SCENES.glob("*.toml")))
+def test_shipped_scenes_load_and_plan(name):
+    """Every shipped scene is valid, plans, and only tables its plan uses (no [psf.X] it skips)."""
+    from lab.plan import make_plan
+
     s = load_scene(SCENES / name)
-    assert s.camera.model == "thin"
-    assert "simple_lens" in s.psf or s.psf == {}
+    plan = make_plan(s)
+    assert set(s.psf) <= set(plan.psf_models), (set(s.psf), plan.psf_models)
 
 
 IRIS = 'focus_distance_m = 2.5\naperture = { blades = 6, rotation_deg = 15 }'

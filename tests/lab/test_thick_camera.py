@@ -105,6 +105,14 @@ def test_a_lens_blind_at_the_image_corners_is_refused_by_the_plan():
         make_plan(s)
 
 
+def test_a_moving_scene_is_refused_naming_the_fix():
+    s = parse_scene({"scene": {"name": "k", "resolution": [32, 24]}, "camera": SINGLET,
+                     "shapes": [{"type": "sphere", "center": [0, 0, 2], "radius": 0.1, "velocity": [0.1, 0, 0],
+                                 "emitter": {"radiance": [1, 1, 1]}}]}, "k.toml")
+    with pytest.raises(UserError, match=r"k.toml \[camera\] model = \"thick\": the scene moves.*model = \"thin\""):
+        make_plan(s)
+
+
 def test_bad_prescriptions_exit_2_through_the_cli(tmp_path, capsys):
     rows = "[[inf, 15.0, \"air\", 11.5], [0.0, 10.0, \"air\", 8.9], [50.0, 8.0, \"N-BK8\", 12.0], [-50.0, 0.0, \"air\", 12.0]]"
     path = tmp_path / "bad.toml"

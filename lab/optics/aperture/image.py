@@ -38,11 +38,23 @@ __all__ = ["ImageAperture", "FileImageAperture", "MAX_IMAGE_SIDE", "load_transmi
 MAX_IMAGE_SIDE = 4096  # larger images cost memory and add nothing a PSF of <= 1000 px can show
 
 
+def _check_grey(img, path: str) -> None:
+    """UserError if a colour image has colour: an aperture is one transmittance for every
+    wavelength (grey saved as RGB passes)."""
+    if img.mode in ("1", "L", "LA", "La", "I", "I;16", "F") or img.mode.startswith("I;"):
+        return
+    rgb = np.asarray(img.convert("RGB"), dtype=np.int16)
+    coloured = int(np.count_nonzero(np.ptp(rgb, axis=-1) > 1))
+    if coloured:
+        raise UserError(f"aperture_image = {path!r} has colour ({coloured} pixel(s) whose R, G, B differ); an "
+                        "aperture is one transmittance for every colour: save it as a grayscale PNG")
+
+
 def load_transmittance(path: str) -> tuple[np.ndarray, str]:
     """Read a PNG (or any image Pillow reads) as transmittance: (H, W) float64 in [0, 1], sha256.
 
-    Raises UserError naming the path and the fix if the file is missing, unreadable, too large
-    or entirely dark.
+    Raises UserError naming the path and the fix if the file is missing, unreadable, too large,
+    coloured or entirely dark.
     """
     from PIL import Image, UnidentifiedImageError
 
@@ -54,6 +66,7 @@ def load_transmittance(path: str) -> tuple[np.ndarray, str]:
                 raise UserError(f"aperture_image = {path!r} is {img.size[0]} x {img.size[1]} pixels; "
                                 f"at most {MAX_IMAGE_SIDE} per side: scale it down")
             img.load()
+            _check_grey(img, path)
             if img.mode in ("P", "PA", "LA", "RGBA", "La", "RGBa") or "transparency" in img.info:
                 rgba = img.convert("RGBA")
                 alpha = np.asarray(rgba.getchannel("A"), dtype=np.float64) / 255.0

@@ -134,6 +134,13 @@ class Volume(PSFModel):
         cut at the PSF's edge), so rays landing outside are not an error here."""
         return self.trace_cell(cell, n_rays, seed)
 
+    def fingerprint(self) -> dict:
+        """The medium and the pinhole's field of view (the PSFs' pixel scale) a header must match."""
+        c = self.config
+        fov = math.degrees(2.0 * math.atan(c.sensor_width_mm / (2.0 * c.focal_length_mm)))
+        return {"medium": {"sigma_t": float(c.medium_density), "albedo": [float(a) for a in c.albedo],
+                           "g": float(c.g)}, "fov_x_deg": fov}
+
     def energy(self, traced: TraceResult) -> np.ndarray:
         """:meth:`window_energy`: the medium's losses stay in the PSF."""
         return self.window_energy(traced)

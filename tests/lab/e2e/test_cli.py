@@ -147,3 +147,23 @@ def test_a_database_for_another_aperture(tiny_input, tiny_db, tmp_path, capsys):
     _expect_user_error(["render", iris, "--db", tiny_db, "--out", out], capsys, str(iris), "aperture",
                        "traced for aperture = None")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["reference", "report"])
+@pytest.mark.parametrize("option, needles", [
+    (["--workers", "0"], ["--workers 0", "integer >= 1"]),
+    (["--workers", "two"], ["--workers 'two'", "integer >= 1"]),
+    (["--scheduler", "localhost:8786"], ["--scheduler 'localhost:8786'", "tcp://"])])
+def test_bad_workers_or_scheduler(command, option, needles, tmp_path, capsys, monkeypatch):
+    """Refused in one line before anything renders (the cache stays empty)."""
+    monkeypatch.setenv("SPLATLAB_CACHE", str(tmp_path / "cache"))
+    _expect_user_error([command, TINY, *option], capsys, *needles)
+    assert not (tmp_path / "cache").exists()
+
+
+@pytest.mark.parametrize("command", ["reference", "report"])
+def test_help_explains_where_passes_run(command, capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--workers N" in text and "--scheduler tcp://HOST:PORT" in text and "Dask" in text

@@ -27,6 +27,9 @@ def test_the_fog_runs_the_volume_model_against_volpath(fog_report):
     assert math.degrees(2 * math.atan(config["sensor_width_mm"] / 2 / config["focal_length_mm"])) == \
         pytest.approx(40.0)
     assert config["min_distance_m"] <= 1.5 and config["max_distance_m"] >= 7.0
+    # the input's header names the fog the runtime adds, and the database records the same
+    assert report["scene"]["camera"]["medium"] == {"sigma_t": 0.25, "albedo": [0.9, 0.9, 0.85], "g": 0.6}
+    assert report["database"]["volume"]["params"]["fingerprint"]["medium"] == report["scene"]["camera"]["medium"]
     methods = report["methods"]
     assert set(methods) == {"spreadlets", "splat", "filter"}
     assert abs(methods["spreadlets"]["psnr"] - methods["splat"]["psnr"]) < 0.5

@@ -1,4 +1,8 @@
-"""A thick lens from scene file to report: ``scenes/tiny_rain.toml`` (drops through a singlet, RGB)."""
+"""A thick lens from scene file to report: ``scenes/tiny_rain.toml`` (drops through a singlet, RGB).
+
+Slow: ~50 s cold on the shared 2-core machine (32 s CPU): the reference's 384 renders of 4 spp
+(3 wavelengths x 512 spp; Mitsuba's ~58 ms per render call dominates) and 166 PSFs.
+"""
 import dataclasses
 import json
 from pathlib import Path
@@ -10,6 +14,9 @@ from lab.exr_io import read_labelled, write_labelled
 from lab.paths import SCENES
 from lab.pipeline import run_report
 from lab.scene import load_scene
+
+
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
@@ -37,10 +44,11 @@ def test_the_thick_lens_runs_the_physical_lens_against_its_own_reference(rain_re
     assert report["reference"]["steps"] == ["mitsuba_thick_lens"]
     methods = report["methods"]
     assert set(methods) == {"spreadlets", "splat", "filter"}
-    # measured: spreadlets 0.810, splat 0.842 against the 1024-spp-per-channel reference (two such
-    # references agree at 0.962); 160 PSF samples pre-filter the spherical aberration's bright rim
+    # measured: spreadlets 0.792, splat 0.822 against the 512-spp-per-channel reference (two such
+    # references agree at 0.927; at 1024 spp 0.806 and 0.962); 160 PSF samples pre-filter the
+    # spherical aberration's bright rim, and the spreadlets draw the smallest PSFs as crosses
     assert abs(methods["spreadlets"]["ssim"] - methods["splat"]["ssim"]) < 0.05
-    assert methods["spreadlets"]["ssim"] > 0.78
+    assert methods["spreadlets"]["ssim"] > 0.77
     saved = json.loads((out / "report.json").read_text())
     assert saved["methods"]["spreadlets"]["ssim"] == methods["spreadlets"]["ssim"]
 

@@ -9,7 +9,7 @@ import pytest
 from lab.errors import UserError
 from lab.precompute import precompute, source_digest
 from lab.precompute.cell import CellJob, run_cell
-from lab.precompute.executors import check_scheduler, dask_threads
+from lab.parallel import check_scheduler, dask_threads, usable_cores
 from runtime_cl.psf.database import SpreadletDatabase
 
 from precompute_helpers import assert_same_database, small_cells, small_model
@@ -30,8 +30,6 @@ def test_dask_local_cluster_matches_the_serial_run(reference, cache):
             threads = dask_threads(client)
             assert len(threads) == 2 and all(t >= 1 for t in threads.values())
             # 2 task slots on this host: each worker process gets half its cores for Dr.Jit
-            from lab.precompute.executors import usable_cores
-
             assert set(threads.values()) == {max(1, usable_cores() // 2)}
         result = precompute(small_model(), progress=False, scheduler=cluster.scheduler_address)
     assert result.executor == "dask" and result.cells == small_cells()
@@ -41,9 +39,9 @@ def test_dask_local_cluster_matches_the_serial_run(reference, cache):
 def test_unreachable_scheduler_is_a_user_error(cache, monkeypatch):
     import socket
 
-    from lab.precompute import executors
+    from lab import parallel
 
-    monkeypatch.setattr(executors, "DASK_TIMEOUT_S", 1.0)
+    monkeypatch.setattr(parallel, "DASK_TIMEOUT_S", 1.0)
     with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]

@@ -10,7 +10,8 @@ from lab.paths import SCENES
 from lab.reference.coc import CocRange, coc_range, depth_range
 from lab.reference.labelled import planar_depth, render_labelled
 from lab.reference.mitsuba_scene import scene_dict
-from lab.reference.render import pass_seeds, render_pinhole, render_reference, split_spp
+from lab.reference.passes import FIXED_BLOCK_LANES, RenderPass
+from lab.reference.render import pass_seeds, reference_job, render_pinhole, render_reference, split_spp
 from lab.scene import load_scene
 
 
@@ -45,10 +46,21 @@ def test_scene_dict_sensors(tiny):
 def test_split_spp_and_seeds():
     assert split_spp(512, 1024, 1024) == [16] * 32
     assert split_spp(100, 1024, 1024) == [16] * 6 + [4]
-    assert split_spp(64, 64, 64) == [64]
-    assert split_spp(10, 8, 8, pass_spp=3) == [3, 3, 3, 1]
+    assert split_spp(4103, 1024, 1024) == [16] * 256 + [4, 2, 1]   # the rest in powers of two
+    assert split_spp(1000, 640, 480) == [32] * 31 + [4, 4]          # 2^24 // 307200 = 54 -> 32; 8 x 307200 < 2^22
+    assert split_spp(64, 256, 256) == [64]                          # 2^22 samples: fixed Dr.Jit blocks
+    assert split_spp(64, 64, 64) == [4] * 16                        # 2^18: blocks sized by threads
+    assert split_spp(10, 8, 8, pass_spp=4) == [4, 4, 2]
+    for spp, w, h in [(4096, 1024, 1024), (77, 333, 211), (5, 1, 1), (3000, 17, 5)]:
+        chunks = split_spp(spp, w, h)
+        assert sum(chunks) == spp and all(c & (c - 1) == 0 for c in chunks)
+        assert all(c <= 4 or w * h * c >= FIXED_BLOCK_LANES for c in chunks)
     with pytest.raises(ValueError):
         split_spp(0, 8, 8)
+    with pytest.raises(ValueError, match="power of two"):
+        split_spp(10, 8, 8, pass_spp=3)
+    with pytest.raises(ValueError, match="pass 2: spp = 3 must be a power of two"):
+        RenderPass(2, 3, 1, (3.0,) * 3)
     seeds = pass_seeds(7, "reference", 32)
     assert len(set(seeds)) == 32 and set(seeds).isdisjoint(pass_seeds(7, "input", 32))
     assert seeds == pass_seeds(7, "reference", 32) and seeds != pass_seeds(8, "reference", 32)
@@ -63,11 +75,13 @@ def test_reference_is_seeded_and_passes_average(tiny):
     c = render_reference(replace(scene, render=replace(scene.render, seed=8)), spp=8, pass_spp=4,
                          progress=False)
     assert np.abs(a - c).mean() > 1e-3  # another seed, another noise
-    # One pass of 32 and uneven passes (3 x 10 + 2) estimate the same image: without the small
-    # lights (rare, bright hits) the image means agree to ~1%.
+    # One pass of 32 and the job's passes (8 x 4 at this size) estimate the same image: without
+    # the small lights (rare, bright hits) the image means agree to ~1%.
     lit = replace(scene, shapes=scene.shapes[:5])
-    one = render_reference(lit, spp=32, pass_spp=32, progress=False)
-    split = render_reference(lit, spp=32, pass_spp=3, progress=False)
+    job = reference_job(lit, spp=32)
+    assert [p.spp for p in job.passes()] == [4] * 8
+    one = job.render(RenderPass(0, 32, 12345, (32.0,) * 3))
+    split = job.run(progress=False)
     assert split.mean() == pytest.approx(one.mean(), rel=0.03)
 
 

@@ -169,3 +169,12 @@ def test_too_large_image(tmp_path, monkeypatch):
     path = write_png(tmp_path / "big.png", np.full((20, 40), 255, np.uint8))
     with pytest.raises(UserError, match=r"40 x 20 pixels; at most 32 per side"):
         make_aperture("image", path=path)
+
+
+def test_a_coloured_aperture_is_refused_but_grey_saved_as_rgb_is_read(tmp_path):
+    rgb = np.full((4, 4, 3), 200, np.uint8)
+    w, _ = load_transmittance(write_png(tmp_path / "grey.png", rgb, "RGB"))
+    assert np.allclose(w, 200 / 255)
+    rgb[1, 2] = (255, 0, 0)
+    with pytest.raises(UserError, match=r"has colour \(1 pixel\(s\).*grayscale PNG"):
+        load_transmittance(write_png(tmp_path / "red.png", rgb, "RGB"))

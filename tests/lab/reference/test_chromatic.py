@@ -46,3 +46,17 @@ def test_a_uniform_sky_images_to_its_radiance_in_every_channel_to_the_corners():
     corners = img[[0, 0, -1, -1], [0, -1, 0, -1]]             # A(r) there is half the centre's
     np.testing.assert_allclose(corners.mean(axis=0), want, rtol=0.05)
     assert np.all(img.std(axis=(0, 1)) < 0.08 * want)                # noise only, no vignetting falloff
+
+
+def test_local_worker_processes_give_the_serial_bits(tmp_path):
+    """The executors only call passes() and render(p): a worker loads the thick-lens sensor itself,
+    one scene per wavelength, and the mean is bitwise the serial one."""
+    from lab.parallel import Executor
+    from lab.reference.execute import run_job
+
+    job = ChromaticJob(_scene(sky=(0.5, 0.25, 1.0)), 16, wavelengths_nm=WAVELENGTHS_NM)
+    serial = job.run(progress=False)
+    with Executor(workers=2) as local:
+        spread = run_job(job, local, tmp_path / "passes", progress=False)
+    assert spread.dtype == serial.dtype and spread.tobytes() == serial.tobytes()
+    assert len(list((tmp_path / "passes").glob("pass*.npy"))) == len(job.passes()) == 12

@@ -1,4 +1,6 @@
 """A moving scene from scene file to report: ``scenes/tiny_motion.toml`` (depth of field + motion)."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -87,3 +89,29 @@ def test_table2_puts_the_papers_row_beside_a_scene_of_the_paper(motion_report, t
     page = (tmp_path / "index.html").read_text()
     assert "LSR18 Table 2" in page and f"{LSR18_TABLE2['whirl']['splat'][0]:.1f}" in page
     assert "8.2&times;" in page          # the paper's Splat / spreadlets: 722.8 / 88.0 ms
+
+
+def test_a_moving_scene_through_a_pinhole_blurs_motion_alone(motion_report, tmp_path):
+    """tiny_motion seen through a pinhole: the combined model with CoC 0 (max_coc_px 1), against
+    sub-frames through the pinhole; the spreadlets bring the input closer to the reference."""
+    import tomllib
+
+    from lab.report.metrics import ssim
+
+    text = (SCENES / "tiny_motion.toml").read_text()
+    data = tomllib.loads(text)
+    cam = data["camera"]
+    start, end = text.index("[camera]"), text.index("[render]")
+    pinhole = (f'[camera]\nmodel = "pinhole"\nposition = {cam["position"]}\nlook_at = {cam["look_at"]}\n'
+               f'fov_deg = 24.0\n\n')
+    path = tmp_path / "pinhole_motion.toml"
+    path.write_text(text[:start].replace('name = "tiny_motion"', 'name = "pinhole_motion"') + pinhole + text[end:])
+    report = run_report(path, tmp_path / "out", progress=False)
+    assert report["plan"]["psf_models"] == ["combined"] and report["plan"]["effects"]["dof"] == "none"
+    assert report["database"]["combined"]["params"]["config"]["max_coc_px"] == 1.0
+    (folder,) = [p for p in Path(report["reference"]["cache"]).parent.glob("pinhole_motion-*")]
+    image = read_labelled(folder / "input.exr")
+    from lab.exr_io import read_rgb
+
+    reference = read_rgb(folder / "reference.exr")
+    assert report["methods"]["spreadlets"]["ssim"] > ssim(image.rgb, reference) + 0.01

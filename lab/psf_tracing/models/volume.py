@@ -5,25 +5,35 @@ max_distance_m] (beta 1, 200 samples). The medium fills space; its extinction si
 (``medium_density``), Henyey-Greenstein anisotropy ``g`` and per-channel single-scattering
 ``albedo`` are fixed (LSR18: .9, .8, (1, 1, .9)).
 
-Light tracing: a photon leaves the light (at the origin) in a uniform direction, in one colour
-channel; it flies by Woodcock tracking (:mod:`lab.optics.media`), is absorbed at a real
-collision with probability 1 - albedo, else scatters by HG. The camera: by the spherical
-symmetry of the set-up, the radiance arriving at distance d is the same at every point of the
-sphere |x| = d, so every outward crossing of that sphere, anywhere, is a photon entering a
-camera there that looks at the light. Counting crossings through the camera's flat aperture
-counts energy (flux = L cos dA dOmega), and a pinhole with focal length f images direction w at
-f tan(angle to the axis): the histogram of f (w . e1, w . e2) / (w . n) over all crossings is the
-PSF, its cos^4 falloff included, with no weights. Unscattered photons (a fraction
-exp(-sigma_t d)) land in the centre pixel; scattered ones form the halo.
+Light tracing: a photon leaves the light (at the origin) in a uniform direction; it flies by
+Woodcock tracking (:mod:`lab.optics.media`), is absorbed at a real collision with probability
+1 - albedo, else scatters by HG. The camera: by the spherical symmetry of the set-up, the
+radiance arriving at distance d is the same at every point of the sphere |x| = d, so every
+outward crossing of that sphere, anywhere, is a photon entering a camera there that looks at the
+light. Counting crossings through the camera's flat aperture counts energy (flux = L cos dA
+dOmega), and a pinhole with focal length f images direction w at f tan(angle to the axis): the
+histogram of f (w . e1, w . e2) / (w . n) over all crossings is the PSF, its cos^4 falloff
+included, with no weights. Unscattered photons (a fraction exp(-sigma_t d)) land in the centre
+pixel; scattered ones form the halo.
+
+Colour: ray i is in channel i mod 3 (a third of the rays each, exactly). Only absorption depends
+on the channel, and it is drawn once per photon: with u uniform, the photon survives its j-th real
+collision iff u <= albedo^j, i.e. j <= ln u / ln albedo -- the albedo coin at every collision
+(P(j survived) = albedo^j, each collision independently), at one random number per photon.
 
 A photon may cross the sphere more than once (out, back in, out). Each ray reports one of its
 crossings that land in the image, chosen uniformly (reservoir sampling), with the integer
 multiplicity k = how many there were (:class:`RayHits` ``weight``), so the expected histogram
 counts every crossing. The image here excludes a ``PSF_MARGIN_PX`` border (the sparsifier needs
 it empty): the halo is cut off there. Rays whose crossings all miss it land outside; rays
-absorbed or lost before crossing are blocked. Photons are dropped once farther than d + ``escape_mfp`` mean
-free paths from the light, or after ``max_collisions`` collisions (a truncation whose effect the
-tests bound).
+absorbed or lost before crossing are blocked. Photons are dropped once farther than
+d + ``escape_mfp`` mean free paths from the light, or after ``max_collisions`` collisions (a
+truncation whose effect the tests bound).
+
+Speed (``splatlab bench precompute``): walks run on persistent SIMD lanes
+(:func:`lab.psf_tracing.walks.run_walks`), so a packet of 16 lanes does not wait for its longest
+walk; the projection onto the camera runs only for crossings inside the image's cone (a branch
+packets skip); absorption costs one random number per photon, not one per collision.
 
 The traced PSF is normalised per channel inside the image (the tracer's contract). The energy
 that reaches the image relative to the point without the medium, per channel, is
@@ -41,16 +51,67 @@ from functools import cached_property
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array2f, Array3f, Bool, Float, UInt32
+from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, PCG32, UInt32
 
-from lab.optics.media import exp_step, frame, hg_sample, scatter_direction
+from lab.optics.media import frame, hg_sample, scatter_direction
 from lab.psf_tracing.models.base import PSFModel, register_model
 from lab.psf_tracing.models.simple_lens import PSF_MARGIN_PX
 from lab.psf_tracing.models.volume_config import VolumeConfig
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import RayHits, TraceResult
+from lab.psf_tracing.walks import run_walks
 
 __all__ = ["Volume", "VolumeConfig"]
+
+# SIMD lanes the walks run on: two of Dr.Jit's 16384-lane blocks, one per thread (both draw walks
+# from one counter, so neither idles while the other still has work).
+WALK_LANES = 2 ** 15
+_PIXEL_BIAS = 1 << 15                 # a pixel offset k is stored as k + bias in 16 bits
+_NEVER = -1e30                        # 1 / ln(albedo) for albedo 1: no collision absorbs
+
+
+class _Photon:
+    """The state of one photon's walk (a Dr.Jit struct: loops and branches carry it field by field).
+
+    ``p``, ``w``: position (m) and unit direction; ``dist``: the camera sphere's radius d;
+    ``survive``: the photon is absorbed at the first real collision beyond this many (ln u /
+    ln albedo); ``collisions``, ``real``: tentative and real collisions so far; ``alive``: the walk
+    goes on; ``count``: crossings in the image k, shifted left by one, or-ed with 1 once the photon
+    has crossed the sphere at all; ``pixel``: the reservoir's crossing (packed); ``rng``: the
+    photon's generator.
+    """
+
+    DRJIT_STRUCT = {"p": Array3f, "w": Array3f, "dist": Float, "survive": Float, "collisions": UInt32,
+                    "real": UInt32, "alive": Bool, "count": UInt32, "pixel": UInt32, "rng": PCG32}
+
+    def __init__(self, **fields):
+        for name, value in fields.items():
+            setattr(self, name, value)
+
+
+def _cone(radius_px: float, focal_px: float) -> tuple[float, float]:
+    """The cheap test for crossings that may land in the image: (cos_lo, near_fraction).
+
+    A crossing landing within ``radius_px`` of the centre on both axes is within sqrt(2)
+    radius_px of it, at an angle to the sphere's normal with tangent tan_c = sqrt(2) radius_px /
+    focal_px at most. The walk compares sqrt(disc) = d cos(angle) (a by-product of the crossing
+    test) with d cos_lo, cos_lo that of the tangent 1.1 tan_c + 0.01: never below what the exact
+    projection keeps as long as disc's rounding (<= 12 eps R^2, |p| <= R = d + escape) stays
+    under d^2 (cos_c^2 - cos_lo^2). Walks with d below ``near_fraction`` R, where that could
+    fail (a tenth of the margin), project every crossing.
+    """
+    tan_c = math.sqrt(2.0) * radius_px / focal_px
+    cos_c = 1.0 / math.sqrt(1.0 + tan_c * tan_c)
+    tan_lo = 1.1 * tan_c + 0.01
+    cos_lo = 1.0 / math.sqrt(1.0 + tan_lo * tan_lo)
+    return cos_lo, math.sqrt(1e-5 / max(cos_c * cos_c - cos_lo * cos_lo, 1e-30))
+
+
+def _inv_log(albedo: float) -> float:
+    """1 / ln(albedo): a photon survives j real collisions iff j <= ln(u) * this (u in (0, 1))."""
+    if albedo >= 1.0:
+        return _NEVER
+    return 0.0 if albedo <= 0.0 else 1.0 / math.log(albedo)
 
 
 @register_model("volume")
@@ -68,66 +129,95 @@ class Volume(PSFModel):
                                       ("distance_m",))
 
     def rays(self, coords: list, rng) -> RayHits:
-        """Per ray: a photon from the light, tracked until absorbed or lost; one camera crossing."""
+        """Per ray: a photon from the light in channel ray mod 3, tracked until absorbed or lost;
+        one of its camera crossings (see the module docstring)."""
         c = self.config
         o = dr.opaque
         n = dr.width(coords[0])
-        dist = coords[0]
-        u = rng.next_float32() * 3.0
-        ch = dr.minimum(UInt32(u), 2)
-        albedo = dr.select(ch == 0, o(Float, c.albedo[0]), dr.select(ch == 1, o(Float, c.albedo[1]),
-                                                                      o(Float, c.albedo[2])))
-        z = 1.0 - 2.0 * rng.next_float32()
-        sp, cp = dr.sincos(2.0 * math.pi * rng.next_float32())
-        r = dr.sqrt(dr.maximum(1.0 - z * z, 0.0))
-        w = Array3f(r * cp, r * sp, z)
-        sbar = o(Float, c.medium_density * c.majorant_ratio)
+        dist_all = coords[0]
+        dr.eval(dist_all, rng)          # a walk takes its ray's coordinate and generator
+        counts = dr.zeros(UInt32, n)    # per ray: k << 1 | crossed
+        pixels = dr.zeros(UInt32, n)    # per ray: the reservoir's pixel, packed
+        dr.make_opaque(counts, pixels)
+        inv_log = [o(Float, _inv_log(a)) for a in c.albedo]
+        inv_sbar = o(Float, 1.0 / (c.medium_density * c.majorant_ratio))
         real_p = o(Float, 1.0 / c.majorant_ratio)
         g = o(Float, c.g)
         fpx = o(Float, c.focal_length_px)
+        escape = o(Float, c.escape_mfp / c.medium_density)
+        max_collisions = o(UInt32, c.max_collisions)
         # pixels the tracer bins at k = floor(offset + 1/2), kept to [lo, hi]: the image less a
         # PSF_MARGIN_PX border, which the sparsifier needs empty (crossings there count as outside)
         half = c.psf_resolution // 2
-        lo, hi = o(Float, PSF_MARGIN_PX - half), o(Float, c.psf_resolution - 1 - half - PSF_MARGIN_PX)
-        reach = dist + o(Float, c.escape_mfp / c.medium_density)
-        reach2 = reach * reach
+        lo, hi = PSF_MARGIN_PX - half, c.psf_resolution - 1 - half - PSF_MARGIN_PX
+        cos_lo, near_fraction = (o(Float, v) for v in _cone(max(-lo, hi) + 0.5, c.focal_length_px))
+        lo, hi = o(Float, lo), o(Float, hi)
 
-        def cond(p, w, alive, k, hit, crossed, steps, rng):
-            return alive
+        def start(ray, valid):
+            walk_rng = dr.gather(PCG32, rng, ray, valid)
+            u = (Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23   # in (0, 1), never 0 or 1
+            ch = ray % 3
+            inv = dr.select(ch == 0, inv_log[0], dr.select(ch == 1, inv_log[1], inv_log[2]))
+            z = 1.0 - 2.0 * walk_rng.next_float32()
+            sp, cp = dr.sincos(2.0 * math.pi * walk_rng.next_float32())
+            r = dr.sqrt(dr.maximum(1.0 - z * z, 0.0))
+            m = dr.width(ray)
+            return (_Photon(p=dr.zeros(Array3f, m), w=Array3f(r * cp, r * sp, z),
+                            dist=dr.gather(Float, dist_all, ray, valid), survive=dr.log(u) * inv,
+                            collisions=dr.zeros(UInt32, m), real=dr.zeros(UInt32, m),
+                            alive=dr.full(Bool, True, m), count=dr.zeros(UInt32, m),
+                            pixel=dr.zeros(UInt32, m), rng=walk_rng),)
 
-        def body(p, w, alive, k, hit, crossed, steps, rng):
-            s = exp_step(sbar, rng.next_float32())
-            # outward crossing of |x| = dist on the flight [p, p + s w]: the larger root t+
-            b = dr.dot(p, w)
-            disc = b * b - (dr.squared_norm(p) - dist * dist)
-            t = dr.sqrt(dr.maximum(disc, 0.0)) - b
-            cross = alive & (disc >= 0) & (t >= 0) & (t <= s)
-            x = p + w * t
-            nrm = dr.select(dist > 1e-6, x / dr.maximum(dist, 1e-6), w)
+        def project(ph, t):
+            """Where the crossing at p + t w lands: a pinhole camera there looking at the light."""
+            x = dr.fma(ph.w, t, ph.p)
+            nrm = dr.select(ph.dist > 1e-6, x * dr.rsqrt(dr.squared_norm(x)), ph.w)
             e1, e2 = frame(nrm)
-            inv = fpx / dr.dot(w, nrm)
-            off = Array2f(dr.dot(w, e1) * inv, dr.dot(w, e2) * inv)
-            kx, ky = dr.floor(off.x + 0.5), dr.floor(off.y + 0.5)
-            seen = cross & (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi)
-            k = k + UInt32(dr.select(seen, 1, 0))
-            take = seen & (rng.next_float32() * Float(k) < 1.0)      # reservoir: keep w.p. 1/k
-            hit = dr.select(take, off, hit)
-            crossed = crossed | cross
-            p = dr.select(alive, p + w * s, p)
-            real = alive if c.majorant_ratio == 1.0 else alive & (rng.next_float32() < real_p)
-            scatter = real & (rng.next_float32() < albedo)
-            mu, sin = hg_sample(g, rng.next_float32())
-            w = dr.select(scatter, scatter_direction(w, mu, sin, rng.next_float32()), w)
-            steps = steps + 1
-            alive = alive & ~(real & ~scatter) & (dr.squared_norm(p) <= reach2) & (steps < c.max_collisions)
-            return p, w, alive, k, hit, crossed, steps, rng
+            inv = fpx / dr.dot(ph.w, nrm)
+            kx = dr.floor(dr.fma(dr.dot(ph.w, e1), inv, 0.5))
+            ky = dr.floor(dr.fma(dr.dot(ph.w, e2), inv, 0.5))
+            seen = (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi)
+            ph.count = dr.select(seen, ph.count + 2, ph.count)
+            take = seen & (ph.rng.next_float32() * Float(ph.count >> 1) < 1.0)   # reservoir: w.p. 1/k
+            packed = UInt32(Int32(kx) + _PIXEL_BIAS) | (UInt32(Int32(ky) + _PIXEL_BIAS) << 16)
+            ph.pixel = dr.select(take, packed, ph.pixel)
+            return ph
 
-        state = (dr.zeros(Array3f, n), w, dr.full(Bool, True, n), dr.zeros(UInt32, n),
-                 dr.zeros(Array2f, n), dr.zeros(Bool, n), dr.zeros(UInt32, n), rng)
-        _, _, _, k, hit, crossed, _, _ = dr.while_loop(state, cond, body)
+        def step(ph):
+            s = -dr.log(1.0 - ph.rng.next_float32()) * inv_sbar
+            # outward crossing of |x| = d on the flight [p, p + s w]: the larger root t+
+            b = dr.dot(ph.p, ph.w)
+            disc = b * b - (dr.squared_norm(ph.p) - ph.dist * ph.dist)
+            root = dr.sqrt(dr.maximum(disc, 0.0))
+            t = root - b
+            cross = ph.alive & (disc >= 0) & (t >= 0) & (t <= s)
+            near = cross & ((root >= cos_lo * ph.dist) | (ph.dist <= near_fraction * (ph.dist + escape)))
+            ph = dr.if_stmt((ph, t), near, project, lambda ph, t: ph)
+            ph.count = ph.count | UInt32(cross)
+            ph.p = dr.fma(ph.w, s, ph.p)
+            real = True if c.majorant_ratio == 1.0 else ph.rng.next_float32() < real_p
+            ph.real = ph.real + UInt32(real)
+            mu, sin = hg_sample(g, ph.rng.next_float32())
+            w = scatter_direction(ph.w, mu, sin, ph.rng.next_float32())
+            ph.w = w if c.majorant_ratio == 1.0 else dr.select(real, w, ph.w)
+            reach = ph.dist + escape
+            ph.collisions = ph.collisions + 1
+            ph.alive &= ((Float(ph.real) <= ph.survive) & (dr.squared_norm(ph.p) <= reach * reach)
+                         & (ph.collisions < max_collisions))
+            return (ph,)
+
+        def store(ray, ph):
+            dr.scatter(counts, ph.count, ray)
+            dr.scatter(pixels, ph.pixel, ray)
+
+        run_walks(n, min(n, WALK_LANES), start, step, lambda ph: ph.alive, store)
+        dr.eval(counts, pixels)
+        k = counts >> 1
+        hit = Array2f(Float(Int32(pixels & 0xFFFF) - _PIXEL_BIAS), Float(Int32(pixels >> 16) - _PIXEL_BIAS))
         far = 4.0 * float(c.psf_resolution)
         offset = dr.select(k > 0, hit, Array2f(far, far))             # crossings all beside the image
-        return RayHits(offset, active=crossed, channel=ch, weight=dr.maximum(k, 1))
+        return RayHits(offset, active=(counts & 1) == 1, channel=dr.arange(UInt32, n) % 3,
+                       weight=dr.maximum(k, 1))
 
     def trace_checked(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> TraceResult:
         """:meth:`trace_cell`: light scattered beyond the image's field is expected (the halo is

@@ -29,12 +29,16 @@ import math
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array3f, Float
+from drjit.llvm import Array3f, Float, Int32
 
 from lab.errors import UserError
 
-__all__ = ["check_g", "hg_pdf", "hg_cdf", "hg_sample", "frame", "scatter_direction", "exp_step",
-           "woodcock_distance"]
+__all__ = ["check_g", "hg_pdf", "hg_cdf", "hg_sample", "frame", "unit_circle", "scatter_direction",
+           "exp_step", "woodcock_distance"]
+
+# Minimax polynomials of sin and cos on [-pi/4, pi/4] (Cephes sinf/cosf; error < 1e-7 there)
+_SIN = (-1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4)
+_COS = (4.166664568298827e-2, -1.388731625493765e-3, 2.443315711809948e-5)
 
 
 def check_g(g: float, name: str = "g") -> float:
@@ -83,11 +87,32 @@ def frame(w: Array3f):
             Array3f(b, sign + w.y * w.y * a, -w.y))
 
 
+def unit_circle(u):
+    """(cos, sin) of 2 pi ``u`` for ``u`` in [0, 1] (Dr.Jit Float): a uniform azimuth's direction.
+
+    ``dr.sincos`` reduces arbitrary arguments; here 4 u splits into a quarter turn q = round(4 u)
+    and a rest x = (4 u - q) pi / 2 in [-pi/4, pi/4] (4 u - q is exact), where short polynomials
+    are accurate to float precision; the quarter turns swap and negate them.
+    """
+    v = 4.0 * u
+    q = dr.round(v)
+    x = (v - q) * (0.5 * math.pi)
+    z = x * x
+    sin = dr.fma(x * z, dr.fma(dr.fma(_SIN[2], z, _SIN[1]), z, _SIN[0]), x)
+    cos = dr.fma(z * z, dr.fma(dr.fma(_COS[2], z, _COS[1]), z, _COS[0]), dr.fma(-0.5, z, 1.0))
+    quarter = Int32(q)
+    odd = (quarter & 1) == 1
+    c, s = dr.select(odd, sin, cos), dr.select(odd, cos, sin)     # turn by q quarters:
+    c = dr.select(((quarter + 1) & 2) == 2, -c, c)                 # q = 1, 2: cos < 0
+    s = dr.select((quarter & 2) == 2, -s, s)                       # q = 2, 3: sin < 0
+    return c, s
+
+
 def scatter_direction(w: Array3f, mu, sin, phi_u) -> Array3f:
     """The unit direction at angle acos(mu) from ``w``, azimuth 2 pi ``phi_u`` about it."""
     t, b = frame(w)
-    sp, cp = dr.sincos(2.0 * math.pi * phi_u)
-    return dr.normalize(w * mu + (t * cp + b * sp) * sin)
+    cp, sp = unit_circle(phi_u)
+    return dr.normalize(dr.fma(dr.fma(t, cp, b * sp), sin, w * mu))
 
 
 def exp_step(sigma, u):

@@ -51,12 +51,13 @@ from functools import cached_property
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, PCG32, UInt32
+from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, UInt32
 
-from lab.optics.media import frame, hg_sample, scatter_direction
+from lab.optics.media import frame, hg_sample, scatter_direction, unit_circle
 from lab.psf_tracing.models.base import PSFModel, register_model
 from lab.psf_tracing.models.simple_lens import PSF_MARGIN_PX
 from lab.psf_tracing.models.volume_config import VolumeConfig
+from lab.psf_tracing.rng32 import Xoroshiro64
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import RayHits, TraceResult
 from lab.psf_tracing.walks import run_walks
@@ -74,19 +75,25 @@ class _Photon:
     """The state of one photon's walk (a Dr.Jit struct: loops and branches carry it field by field).
 
     ``p``, ``w``: position (m) and unit direction; ``dist``: the camera sphere's radius d;
-    ``survive``: the photon is absorbed at the first real collision beyond this many (ln u /
-    ln albedo); ``collisions``, ``real``: tentative and real collisions so far; ``alive``: the walk
-    goes on; ``count``: crossings in the image k, shifted left by one, or-ed with 1 once the photon
-    has crossed the sphere at all; ``pixel``: the reservoir's crossing (packed); ``rng``: the
-    photon's generator.
+    ``left``: real collisions the photon still survives (it ends at the next one when 0; without
+    null collisions also the collisions left before ``max_collisions``); ``alive``: the walk goes
+    on; ``count``: crossings in the image k, shifted left by one, or-ed with 1 once the photon has
+    crossed the sphere at all; ``pixel``: the reservoir's crossing (packed); ``rng``: its
+    generator. Few fields: each costs blends and spills every step.
     """
 
-    DRJIT_STRUCT = {"p": Array3f, "w": Array3f, "dist": Float, "survive": Float, "collisions": UInt32,
-                    "real": UInt32, "alive": Bool, "count": UInt32, "pixel": UInt32, "rng": PCG32}
+    DRJIT_STRUCT = {"p": Array3f, "w": Array3f, "dist": Float, "left": UInt32, "alive": Bool,
+                    "count": UInt32, "pixel": UInt32, "rng": Xoroshiro64}
 
     def __init__(self, **fields):
         for name, value in fields.items():
             setattr(self, name, value)
+
+
+class _NullPhoton(_Photon):
+    """:class:`_Photon` with ``steps``: tentative collisions left (Woodcock with null collisions)."""
+
+    DRJIT_STRUCT = {**_Photon.DRJIT_STRUCT, "steps": UInt32}
 
 
 def _cone(radius_px: float, focal_px: float) -> tuple[float, float]:
@@ -94,11 +101,11 @@ def _cone(radius_px: float, focal_px: float) -> tuple[float, float]:
 
     A crossing landing within ``radius_px`` of the centre on both axes is within sqrt(2)
     radius_px of it, at an angle to the sphere's normal with tangent tan_c = sqrt(2) radius_px /
-    focal_px at most. The walk compares sqrt(disc) = d cos(angle) (a by-product of the crossing
-    test) with d cos_lo, cos_lo that of the tangent 1.1 tan_c + 0.01: never below what the exact
-    projection keeps as long as disc's rounding (<= 12 eps R^2, |p| <= R = d + escape) stays
-    under d^2 (cos_c^2 - cos_lo^2). Walks with d below ``near_fraction`` R, where that could
-    fail (a tenth of the margin), project every crossing.
+    focal_px at most. The crossing test's disc equals d^2 cos^2(angle), so the walk projects a
+    crossing only if disc >= cos_lo^2 d^2, cos_lo that of the tangent 1.1 tan_c + 0.01: never
+    less than what the exact projection keeps as long as disc's rounding (<= 12 eps R^2 with
+    |p| <= R = d + escape) stays under d^2 (cos_c^2 - cos_lo^2). Walks with d below
+    ``near_fraction`` R, where that could fail (with a factor 10 to spare), project every crossing.
     """
     tan_c = math.sqrt(2.0) * radius_px / focal_px
     cos_c = 1.0 / math.sqrt(1.0 + tan_c * tan_c)
@@ -135,7 +142,8 @@ class Volume(PSFModel):
         o = dr.opaque
         n = dr.width(coords[0])
         dist_all = coords[0]
-        dr.eval(dist_all, rng)          # a walk takes its ray's coordinate and generator
+        seeds = Xoroshiro64.from_pcg32(rng)     # a walk takes its ray's coordinate and generator
+        dr.eval(dist_all, seeds)
         counts = dr.zeros(UInt32, n)    # per ray: k << 1 | crossed
         pixels = dr.zeros(UInt32, n)    # per ray: the reservoir's pixel, packed
         dr.make_opaque(counts, pixels)
@@ -144,32 +152,40 @@ class Volume(PSFModel):
         real_p = o(Float, 1.0 / c.majorant_ratio)
         g = o(Float, c.g)
         fpx = o(Float, c.focal_length_px)
-        escape = o(Float, c.escape_mfp / c.medium_density)
-        max_collisions = o(UInt32, c.max_collisions)
+        # a photon goes on after collision j iff it survives it (j <= S, S real collisions survived)
+        # and j < max_collisions: without null collisions one count-down of min(S, max - 1) says both
+        null_collisions = c.majorant_ratio != 1.0
+        cap = o(Float, float(c.max_collisions if null_collisions else c.max_collisions - 1))
         # pixels the tracer bins at k = floor(offset + 1/2), kept to [lo, hi]: the image less a
         # PSF_MARGIN_PX border, which the sparsifier needs empty (crossings there count as outside)
         half = c.psf_resolution // 2
         lo, hi = PSF_MARGIN_PX - half, c.psf_resolution - 1 - half - PSF_MARGIN_PX
-        cos_lo, near_fraction = (o(Float, v) for v in _cone(max(-lo, hi) + 0.5, c.focal_length_px))
+        cos_lo, near_fraction = _cone(max(-lo, hi) + 0.5, c.focal_length_px)
+        cos_lo2, near_fraction = o(Float, cos_lo * cos_lo), o(Float, near_fraction)
+        escape = o(Float, c.escape_mfp / c.medium_density)
         lo, hi = o(Float, lo), o(Float, hi)
 
         def start(ray, valid):
-            walk_rng = dr.gather(PCG32, rng, ray, valid)
-            u = (Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23   # in (0, 1), never 0 or 1
+            m = dr.width(ray)
+            walk_rng = dr.gather(Xoroshiro64, seeds, ray, valid)
+            d = dr.gather(Float, dist_all, ray, valid)
             ch = ray % 3
             inv = dr.select(ch == 0, inv_log[0], dr.select(ch == 1, inv_log[1], inv_log[2]))
+            u = (Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23   # in (0, 1), never 0 or 1
+            left = UInt32(dr.minimum(dr.log(u) * inv, cap))           # real collisions survived
             z = 1.0 - 2.0 * walk_rng.next_float32()
-            sp, cp = dr.sincos(2.0 * math.pi * walk_rng.next_float32())
+            cp, sp = unit_circle(walk_rng.next_float32())
             r = dr.sqrt(dr.maximum(1.0 - z * z, 0.0))
-            m = dr.width(ray)
-            return (_Photon(p=dr.zeros(Array3f, m), w=Array3f(r * cp, r * sp, z),
-                            dist=dr.gather(Float, dist_all, ray, valid), survive=dr.log(u) * inv,
-                            collisions=dr.zeros(UInt32, m), real=dr.zeros(UInt32, m),
-                            alive=dr.full(Bool, True, m), count=dr.zeros(UInt32, m),
-                            pixel=dr.zeros(UInt32, m), rng=walk_rng),)
+            photon = (_NullPhoton if null_collisions else _Photon)(
+                p=dr.zeros(Array3f, m), w=Array3f(r * cp, r * sp, z), dist=d, left=left,
+                alive=dr.full(Bool, True, m), count=dr.zeros(UInt32, m), pixel=dr.zeros(UInt32, m), rng=walk_rng)
+            if null_collisions:
+                photon.steps = dr.full(UInt32, c.max_collisions - 1, m)
+            return (photon,)
 
-        def project(ph, t):
-            """Where the crossing at p + t w lands: a pinhole camera there looking at the light."""
+        def project(ph, t, u):
+            """Where the crossing at p + t w lands: a pinhole camera there looking at the light;
+            the reservoir keeps it with probability 1/k (``u`` uniform)."""
             x = dr.fma(ph.w, t, ph.p)
             nrm = dr.select(ph.dist > 1e-6, x * dr.rsqrt(dr.squared_norm(x)), ph.w)
             e1, e2 = frame(nrm)
@@ -178,7 +194,7 @@ class Volume(PSFModel):
             ky = dr.floor(dr.fma(dr.dot(ph.w, e2), inv, 0.5))
             seen = (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi)
             ph.count = dr.select(seen, ph.count + 2, ph.count)
-            take = seen & (ph.rng.next_float32() * Float(ph.count >> 1) < 1.0)   # reservoir: w.p. 1/k
+            take = seen & (u * Float(ph.count >> 1) < 1.0)
             packed = UInt32(Int32(kx) + _PIXEL_BIAS) | (UInt32(Int32(ky) + _PIXEL_BIAS) << 16)
             ph.pixel = dr.select(take, packed, ph.pixel)
             return ph
@@ -187,23 +203,30 @@ class Volume(PSFModel):
             s = -dr.log(1.0 - ph.rng.next_float32()) * inv_sbar
             # outward crossing of |x| = d on the flight [p, p + s w]: the larger root t+
             b = dr.dot(ph.p, ph.w)
-            disc = b * b - (dr.squared_norm(ph.p) - ph.dist * ph.dist)
-            root = dr.sqrt(dr.maximum(disc, 0.0))
-            t = root - b
+            d2 = ph.dist * ph.dist
+            disc = dr.fma(b, b, d2 - dr.squared_norm(ph.p))
+            t = dr.sqrt(dr.maximum(disc, 0.0)) - b
             cross = ph.alive & (disc >= 0) & (t >= 0) & (t <= s)
-            near = cross & ((root >= cos_lo * ph.dist) | (ph.dist <= near_fraction * (ph.dist + escape)))
-            ph = dr.if_stmt((ph, t), near, project, lambda ph, t: ph)
+            reach = ph.dist + escape
+            cone = dr.select(ph.dist <= near_fraction * reach, 0.0, cos_lo2 * d2)
+            # the reservoir's number is drawn on every step: drawing it in the branch would route the
+            # generator through the branch's merge, which costs more
+            u = ph.rng.next_float32()
+            ph = dr.if_stmt((ph, t, u), cross & (disc >= cone), project, lambda ph, t, u: ph)
             ph.count = ph.count | UInt32(cross)
             ph.p = dr.fma(ph.w, s, ph.p)
-            real = True if c.majorant_ratio == 1.0 else ph.rng.next_float32() < real_p
-            ph.real = ph.real + UInt32(real)
+            if null_collisions:
+                real = ph.rng.next_float32() < real_p
+                go_on = (~real | (ph.left > 0)) & (ph.steps > 0)
+                ph.left = dr.select(real, ph.left - 1, ph.left)
+                ph.steps = ph.steps - 1
+            else:
+                go_on = ph.left > 0
+                ph.left = ph.left - 1
             mu, sin = hg_sample(g, ph.rng.next_float32())
             w = scatter_direction(ph.w, mu, sin, ph.rng.next_float32())
-            ph.w = w if c.majorant_ratio == 1.0 else dr.select(real, w, ph.w)
-            reach = ph.dist + escape
-            ph.collisions = ph.collisions + 1
-            ph.alive &= ((Float(ph.real) <= ph.survive) & (dr.squared_norm(ph.p) <= reach * reach)
-                         & (ph.collisions < max_collisions))
+            ph.w = dr.select(real, w, ph.w) if null_collisions else w
+            ph.alive &= go_on & (dr.squared_norm(ph.p) <= reach * reach)
             return (ph,)
 
         def store(ray, ph):

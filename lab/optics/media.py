@@ -29,16 +29,19 @@ import math
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array3f, Float, Int32
+from drjit.llvm import Array3f, Float, Int32, UInt32
 
 from lab.errors import UserError
 
 __all__ = ["check_g", "hg_pdf", "hg_cdf", "hg_sample", "frame", "unit_circle", "scatter_direction",
-           "exp_step", "woodcock_distance"]
+           "log_unit", "exp_step", "woodcock_distance"]
 
 # Minimax polynomials of sin and cos on [-pi/4, pi/4] (Cephes sinf/cosf; error < 1e-7 there)
 _SIN = (-1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4)
 _COS = (4.166664568298827e-2, -1.388731625493765e-3, 2.443315711809948e-5)
+# ln(1 + f) - f + f^2 / 2 = f^3 P(f) on [sqrt(1/2) - 1, sqrt(2) - 1] (Cephes logf), highest power first
+_LOG = (7.0376836292e-2, -1.1514610310e-1, 1.1676998740e-1, -1.2420140846e-1, 1.4249322787e-1,
+        -1.6668057665e-1, 2.0000714765e-1, -2.4999993993e-1, 3.3333331174e-1)
 
 
 def check_g(g: float, name: str = "g") -> float:
@@ -115,9 +118,30 @@ def scatter_direction(w: Array3f, mu, sin, phi_u) -> Array3f:
     return dr.normalize(dr.fma(dr.fma(t, cp, b * sp), sin, w * mu))
 
 
+def log_unit(x):
+    """ln ``x`` for normal floats ``x`` in (0, 1] (Dr.Jit Float): ``dr.log`` without its handling of
+    0, negative, infinite and NaN arguments, which a free flight never passes (Cephes logf).
+
+    x = m 2^e with m in [sqrt(1/2), sqrt(2)), ln x = e ln 2 + ln m, ln m a polynomial in m - 1;
+    ln 2 is split in two parts so e ln 2 adds no rounding error.
+    """
+    bits = dr.reinterpret_array(UInt32, x)
+    e = Int32(bits >> 23) - 126                                     # x = m 2^e, m in [1/2, 1)
+    m = dr.reinterpret_array(Float, (bits & 0x007FFFFF) | 0x3F000000)
+    low = m < math.sqrt(0.5)
+    e = Float(dr.select(low, e - 1, e))
+    f = dr.select(low, m + m, m) - 1.0
+    z = f * f
+    p = _LOG[0]
+    for coeff in _LOG[1:]:
+        p = dr.fma(p, f, coeff)
+    y = dr.fma(e, -2.12194440e-4, p * f * z)
+    return dr.fma(e, 0.693359375, f + dr.fma(z, -0.5, y))
+
+
 def exp_step(sigma, u):
     """Exponential free flight of rate ``sigma`` (1/m) from uniform ``u`` in [0, 1): -ln(1 - u) / sigma."""
-    return -dr.log(1.0 - u) / sigma
+    return -log_unit(1.0 - u) / sigma
 
 
 def woodcock_distance(sigma_t: float, majorant: float, rng, max_steps: int = 10_000, limit: float = math.inf):

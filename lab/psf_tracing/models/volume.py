@@ -53,7 +53,7 @@ import drjit as dr
 import numpy as np
 from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, UInt32
 
-from lab.optics.media import frame, hg_sample, scatter_direction, unit_circle
+from lab.optics.media import frame, hg_sample, log_unit, scatter_direction, unit_circle
 from lab.psf_tracing.models.base import PSFModel, register_model
 from lab.psf_tracing.models.simple_lens import PSF_MARGIN_PX
 from lab.psf_tracing.models.volume_config import VolumeConfig
@@ -172,7 +172,7 @@ class Volume(PSFModel):
             ch = ray % 3
             inv = dr.select(ch == 0, inv_log[0], dr.select(ch == 1, inv_log[1], inv_log[2]))
             u = (Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23   # in (0, 1), never 0 or 1
-            left = UInt32(dr.minimum(dr.log(u) * inv, cap))           # real collisions survived
+            left = UInt32(dr.minimum(log_unit(u) * inv, cap))         # real collisions survived
             z = 1.0 - 2.0 * walk_rng.next_float32()
             cp, sp = unit_circle(walk_rng.next_float32())
             r = dr.sqrt(dr.maximum(1.0 - z * z, 0.0))
@@ -200,7 +200,7 @@ class Volume(PSFModel):
             return ph
 
         def step(ph):
-            s = -dr.log(1.0 - ph.rng.next_float32()) * inv_sbar
+            s = -log_unit(1.0 - ph.rng.next_float32()) * inv_sbar
             # outward crossing of |x| = d on the flight [p, p + s w]: the larger root t+
             b = dr.dot(ph.p, ph.w)
             d2 = ph.dist * ph.dist

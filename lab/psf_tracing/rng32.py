@@ -1,13 +1,11 @@
-"""xoroshiro64* (Blackman & Vigna 2018) on Dr.Jit arrays: a random generator in 32-bit lanes.
+"""xoroshiro64** (Blackman & Vigna 2018) on Dr.Jit arrays: a random generator in 32-bit lanes.
 
 The tracer's PCG32 (:func:`lab.psf_tracing.tracer.lane_rng`) advances a 64-bit state per number,
 which on 16-lane AVX-512 packets takes two registers per value and ~23 instructions per draw. A
-photon in fog draws four numbers per collision, so in the Volume model the generator was a fifth
-of each collision's work. xoroshiro64* keeps its 64-bit state in two 32-bit words: 6 instructions
-per draw (one multiply), two registers; period 2^64 - 1. The authors recommend it for
-floating-point numbers from its upper bits, which pass their tests (its lowest bits are weaker;
-the ``**`` variant fixes them with a second multiply, which costs 8 % of the Volume model's
-time): every number drawn here uses the top 24 bits or fewer.
+photon in fog draws three numbers per collision, so in the Volume model the generator was a fifth
+of each collision's work. xoroshiro64** keeps its 64-bit state in two 32-bit words: ~12
+instructions per draw, two registers. Its period is 2^64 - 1 and every output bit passes the
+authors' tests (the ``**`` scrambler; the plain ``*`` variant has weak low bits).
 
 A generator is seeded from a 64-bit key through splitmix64 (the authors' recommendation), so keys
 that differ in one bit start far apart; the tracer's per-ray PCG32 supplies the keys
@@ -35,7 +33,7 @@ def _splitmix64(x: UInt64) -> UInt64:
 
 
 class Xoroshiro64:
-    """One xoroshiro64* generator per lane (a Dr.Jit struct: loops and branches carry it).
+    """One xoroshiro64** generator per lane (a Dr.Jit struct: loops and branches carry it).
 
     Parameters
     ----------
@@ -62,9 +60,9 @@ class Xoroshiro64:
         return cls.from_key(rng.state ^ _splitmix64(rng.inc))
 
     def next_uint32(self) -> UInt32:
-        """The next 32 bits of every lane (advances the state); use the upper ones."""
+        """The next 32 random bits of every lane (advances the state)."""
         s0, s1 = self.s0, self.s1
-        out = s0 * 0x9E3779BB
+        out = _rotl(s0 * 0x9E3779BB, 5) * 5
         s1 = s1 ^ s0
         self.s0 = _rotl(s0, 26) ^ s1 ^ (s1 << 9)
         self.s1 = _rotl(s1, 13)
@@ -76,9 +74,9 @@ class Xoroshiro64:
 
 
 def next_reference(s0: int, s1: int) -> tuple[int, int, int]:
-    """One step of xoroshiro64* in plain Python (the authors' C code): (output, s0, s1)."""
+    """One step of xoroshiro64** in plain Python (the authors' C code): (output, s0, s1)."""
     def rotl(x, k):
         return ((x << k) | (x >> (32 - k))) & _MASK32
-    out = (s0 * 0x9E3779BB) & _MASK32
+    out = (rotl((s0 * 0x9E3779BB) & _MASK32, 5) * 5) & _MASK32
     s1 ^= s0
     return out, rotl(s0, 26) ^ s1 ^ ((s1 << 9) & _MASK32), rotl(s1, 13)

@@ -96,6 +96,37 @@ class _NullPhoton(_Photon):
     DRJIT_STRUCT = {**_Photon.DRJIT_STRUCT, "steps": UInt32}
 
 
+class _Emitted:
+    """A photon as the light emits it: direction ``w``, ``left`` (real collisions it survives) and
+    its generator ``rng`` after those draws (a Dr.Jit struct)."""
+
+    DRJIT_STRUCT = {"w": Array3f, "left": UInt32, "rng": Xoroshiro64}
+
+    def __init__(self, w=None, left=None, rng=None):
+        self.w, self.left, self.rng = w, left, rng
+
+
+def _emitted(rng, c: VolumeConfig) -> _Emitted:
+    """Per ray: its photon's start, from a generator keyed by the tracer's per-ray ``rng``.
+
+    The channel is ray mod 3. Absorption is drawn once: the photon survives S = floor(ln u /
+    ln albedo) real collisions (see the module docstring); without null collisions S is capped at
+    max_collisions - 1, so one count-down also ends the walk there.
+    """
+    n = dr.width(rng.state)
+    walk_rng = Xoroshiro64.from_pcg32(rng)
+    ch = dr.arange(UInt32, n) % 3
+    inv = [dr.opaque(Float, _inv_log(a)) for a in c.albedo]
+    inv = dr.select(ch == 0, inv[0], dr.select(ch == 1, inv[1], inv[2]))
+    cap = dr.opaque(Float, float(c.max_collisions if c.majorant_ratio != 1.0 else c.max_collisions - 1))
+    u = (Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23           # in (0, 1), never 0 or 1
+    left = UInt32(dr.minimum(log_unit(u) * inv, cap))
+    z = 1.0 - 2.0 * walk_rng.next_float32()
+    cp, sp = unit_circle(walk_rng.next_float32())
+    r = dr.sqrt(dr.maximum(1.0 - z * z, 0.0))
+    return _Emitted(Array3f(r * cp, r * sp, z), left, walk_rng)
+
+
 def _cone(radius_px: float, focal_px: float) -> tuple[float, float]:
     """The cheap test for crossings that may land in the image: (cos_lo, near_fraction).
 
@@ -141,21 +172,14 @@ class Volume(PSFModel):
         c = self.config
         o = dr.opaque
         n = dr.width(coords[0])
-        dist_all = coords[0]
-        seeds = Xoroshiro64.from_pcg32(rng)     # a walk takes its ray's coordinate and generator
-        dr.eval(dist_all, seeds)
         counts = dr.zeros(UInt32, n)    # per ray: k << 1 | crossed
         pixels = dr.zeros(UInt32, n)    # per ray: the reservoir's pixel, packed
         dr.make_opaque(counts, pixels)
-        inv_log = [o(Float, _inv_log(a)) for a in c.albedo]
         inv_sbar = o(Float, 1.0 / (c.medium_density * c.majorant_ratio))
         real_p = o(Float, 1.0 / c.majorant_ratio)
         g = o(Float, c.g)
         fpx = o(Float, c.focal_length_px)
-        # a photon goes on after collision j iff it survives it (j <= S, S real collisions survived)
-        # and j < max_collisions: without null collisions one count-down of min(S, max - 1) says both
         null_collisions = c.majorant_ratio != 1.0
-        cap = o(Float, float(c.max_collisions if null_collisions else c.max_collisions - 1))
         # pixels the tracer bins at k = floor(offset + 1/2), kept to [lo, hi]: the image less a
         # PSF_MARGIN_PX border, which the sparsifier needs empty (crossings there count as outside)
         half = c.psf_resolution // 2
@@ -164,21 +188,18 @@ class Volume(PSFModel):
         cos_lo2, near_fraction = o(Float, cos_lo * cos_lo), o(Float, near_fraction)
         escape = o(Float, c.escape_mfp / c.medium_density)
         lo, hi = o(Float, lo), o(Float, hi)
+        # every photon's start, computed for all rays at once (all lanes busy) and gathered by a
+        # lane when it takes the photon: cheaper than computing it there for the whole packet
+        first = _emitted(rng, c)
+        dist_all = coords[0]
+        dr.eval(first, dist_all)
 
         def start(ray, valid):
             m = dr.width(ray)
-            walk_rng = dr.gather(Xoroshiro64, seeds, ray, valid)
-            d = dr.gather(Float, dist_all, ray, valid)
-            ch = ray % 3
-            inv = dr.select(ch == 0, inv_log[0], dr.select(ch == 1, inv_log[1], inv_log[2]))
-            u = (Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23   # in (0, 1), never 0 or 1
-            left = UInt32(dr.minimum(log_unit(u) * inv, cap))         # real collisions survived
-            z = 1.0 - 2.0 * walk_rng.next_float32()
-            cp, sp = unit_circle(walk_rng.next_float32())
-            r = dr.sqrt(dr.maximum(1.0 - z * z, 0.0))
+            f = dr.gather(_Emitted, first, ray, valid)
             photon = (_NullPhoton if null_collisions else _Photon)(
-                p=dr.zeros(Array3f, m), w=Array3f(r * cp, r * sp, z), dist=d, left=left,
-                alive=dr.full(Bool, True, m), count=dr.zeros(UInt32, m), pixel=dr.zeros(UInt32, m), rng=walk_rng)
+                p=dr.zeros(Array3f, m), w=f.w, dist=dr.gather(Float, dist_all, ray, valid), left=f.left,
+                alive=dr.full(Bool, True, m), count=dr.zeros(UInt32, m), pixel=dr.zeros(UInt32, m), rng=f.rng)
             if null_collisions:
                 photon.steps = dr.full(UInt32, c.max_collisions - 1, m)
             return (photon,)

@@ -76,9 +76,8 @@ def hg_sample(g, u):
     inv_s2 = dr.rcp(s * s)
     omc = gm * gm * um * (gp + s) * inv_s2    # 1 - mu
     opc = gp * gp * u * (gm + s) * inv_s2     # 1 + mu
-    mu = dr.select(omc < opc, 1.0 - omc, opc - 1.0)
-    sin = dr.sqrt(dr.maximum(omc * opc, 0.0))
-    return dr.clip(mu, -1.0, 1.0), sin
+    mu = dr.select(omc < opc, 1.0 - omc, opc - 1.0)    # in [-1, 1]: omc, opc >= 0, the smaller < 1
+    return mu, dr.sqrt(omc * opc)
 
 
 def frame(w: Array3f):

@@ -111,10 +111,20 @@ def unit_circle(u):
 
 
 def scatter_direction(w: Array3f, mu, sin, phi_u) -> Array3f:
-    """The unit direction at angle acos(mu) from ``w``, azimuth 2 pi ``phi_u`` about it."""
-    t, b = frame(w)
+    """The unit direction at angle acos(mu) from ``w``, azimuth 2 pi ``phi_u`` about it.
+
+    The azimuth is measured in :func:`frame`'s basis (t, b): the direction is mu w + sin v with
+    v = cos(phi) t + sin(phi) b, which with Duff's t and b expands to v = (cos(phi) + x A,
+    sign sin(phi) + y A, -B), B = sign x cos(phi) + y sin(phi), A = a B (same a and sign):
+    fewer multiplications than building t and b.
+    """
     cp, sp = unit_circle(phi_u)
-    out = dr.fma(dr.fma(t, cp, b * sp), sin, w * mu)
+    sign = dr.select(w.z >= 0, 1.0, -1.0)
+    a = -1.0 / (sign + w.z)
+    big_b = dr.fma(sign * w.x, cp, w.y * sp)
+    big_a = a * big_b
+    v = Array3f(dr.fma(w.x, big_a, cp), dr.fma(w.y, big_a, sign * sp), -big_b)
+    out = dr.fma(v, sin, w * mu)
     # |out| = 1 up to rounding (~1e-7); one Newton step for 1/|out| keeps it there over any
     # number of scatterings, at less cost than dr.normalize
     return out * dr.fma(dr.squared_norm(out), -0.5, 1.5)

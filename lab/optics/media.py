@@ -119,11 +119,10 @@ def scatter_direction(w: Array3f, mu, sin, phi_u) -> Array3f:
     fewer multiplications than building t and b.
     """
     cp, sp = unit_circle(phi_u)
-    sign = dr.select(w.z >= 0, 1.0, -1.0)
-    a = -1.0 / (sign + w.z)
-    big_b = dr.fma(sign * w.x, cp, w.y * sp)
+    a = -1.0 / (w.z + dr.copysign(1.0, w.z))                # sign = the sign bit of w.z
+    big_b = dr.fma(dr.mulsign(w.x, w.z), cp, w.y * sp)
     big_a = a * big_b
-    v = Array3f(dr.fma(w.x, big_a, cp), dr.fma(w.y, big_a, sign * sp), -big_b)
+    v = Array3f(dr.fma(w.x, big_a, cp), dr.fma(w.y, big_a, dr.mulsign(sp, w.z)), -big_b)
     out = dr.fma(v, sin, w * mu)
     # |out| = 1 up to rounding (~1e-7); one Newton step for 1/|out| keeps it there over any
     # number of scatterings, at less cost than dr.normalize

@@ -51,7 +51,7 @@ from functools import cached_property
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, UInt32
+from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, UInt32, UInt64
 
 from lab.optics.media import frame, hg_sample, log_unit, scatter_direction, unit_circle
 from lab.psf_tracing.models.base import PSFModel, register_model
@@ -172,9 +172,10 @@ class Volume(PSFModel):
         c = self.config
         o = dr.opaque
         n = dr.width(coords[0])
-        counts = dr.zeros(UInt32, n)    # per ray: k << 1 | crossed
-        pixels = dr.zeros(UInt32, n)    # per ray: the reservoir's pixel, packed
-        dr.make_opaque(counts, pixels)
+        # per ray: k << 1 | crossed in the low word, the reservoir's pixel (packed) in the high one
+        # (one 64-bit scatter per ended photon costs half of two 32-bit ones)
+        results = dr.zeros(UInt64, n)
+        dr.make_opaque(results)
         inv_sbar = o(Float, 1.0 / (c.medium_density * c.majorant_ratio))
         real_p = o(Float, 1.0 / c.majorant_ratio)
         g = o(Float, c.g)
@@ -251,11 +252,11 @@ class Volume(PSFModel):
             return (ph,)
 
         def store(ray, ph):
-            dr.scatter(counts, ph.count, ray)
-            dr.scatter(pixels, ph.pixel, ray)
+            dr.scatter(results, UInt64(ph.count) | (UInt64(ph.pixel) << 32), ray)
 
         run_walks(n, min(n, WALK_LANES), start, step, lambda ph: ph.alive, store)
-        dr.eval(counts, pixels)
+        dr.eval(results)
+        counts, pixels = UInt32(results & 0xFFFFFFFF), UInt32(results >> 32)
         k = counts >> 1
         hit = Array2f(Float(Int32(pixels & 0xFFFF) - _PIXEL_BIAS), Float(Int32(pixels >> 16) - _PIXEL_BIAS))
         far = 4.0 * float(c.psf_resolution)

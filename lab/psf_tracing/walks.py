@@ -13,8 +13,8 @@ threads' lanes draw from the one pool, so a thread that other processes slow dow
 fewer walks. Each iteration takes ``unroll`` steps (the loop's own bookkeeping -- blending every
 state variable with the loop's mask -- is paid once for them), and lanes look for a new walk
 every ``period`` iterations: the restart is a branch every lane of the packet executes when any
-one needs it (~500 cycles: stores, an atomic, gathers, a new photon), so checking less often lets
-several lanes share it, while an ended walk idles for up to ``period * unroll - 1`` steps.
+one needs it (a few hundred cycles: a scattered store, an atomic, gathers), so checking less often
+lets several lanes share it, while an ended walk idles for up to ``period * unroll - 1`` steps.
 
 Which lane runs which walk depends on timing, so a walk must draw its random numbers from a
 generator chosen by its index (``start`` does that), never from the lane: the results are then

@@ -2,10 +2,11 @@
 
 The tracer's PCG32 (:func:`lab.psf_tracing.tracer.lane_rng`) advances a 64-bit state per number,
 which on 16-lane AVX-512 packets takes two registers per value and ~23 instructions per draw. A
-photon in fog draws three numbers per collision, so in the Volume model the generator was a fifth
-of each collision's work. xoroshiro64** keeps its 64-bit state in two 32-bit words: ~12
+photon in fog draws four numbers per collision, so in the Volume model the generator was a fifth
+of each collision's work. xoroshiro64** keeps its 64-bit state in two 32-bit words: ~10
 instructions per draw, two registers. Its period is 2^64 - 1 and every output bit passes the
-authors' tests (the ``**`` scrambler; the plain ``*`` variant has weak low bits).
+authors' tests. (The ``*`` variant saves a multiply, 8 % of the Volume model's time, but its low
+bits are weak, and with it a Volume test's PSF anisotropy landed outside its tolerance.)
 
 A generator is seeded from a 64-bit key through splitmix64 (the authors' recommendation), so keys
 that differ in one bit start far apart; the tracer's per-ray PCG32 supplies the keys

@@ -2,15 +2,15 @@
 
 Dr.Jit's LLVM backend runs a symbolic :func:`drjit.while_loop` one SIMD packet (16 lanes with
 AVX-512) at a time, and a packet loops until its *last* lane is done. With one walk per lane and a
-long-tailed number of steps -- a photon in fog: ~30 collisions on average, some over 100 -- most
-of the work is lanes waiting, masked out, for the longest walk of their packet (a packet of 16
-walks runs ~3x the mean).
+long-tailed number of steps -- a photon in fog: ~25 collisions on average at 5 m, 1 % over 95 --
+most of the work is lanes waiting, masked out, for the longest walk of their packet (a packet of
+16 walks runs ~2.9x the mean).
 
 :func:`run_walks` instead gives each of ``lanes`` lanes one walk, and a lane whose walk has ended
 stores its result and takes the next walk index from a shared counter (an atomic
-:func:`drjit.scatter_inc`), inside the same loop. Lanes idle only at the very end, and both
-threads' lanes draw from the one pool, so a thread that other processes slow down simply runs
-fewer walks. Each iteration takes ``unroll`` steps (the loop's own bookkeeping -- blending every
+:func:`drjit.scatter_inc`), inside the same loop. Both threads' lanes draw from the one pool, so a
+thread that other processes slow down simply runs fewer walks (a thread runs its block's packets
+one after another: its first packet ends up running most walks, the others their first). Each iteration takes ``unroll`` steps (the loop's own bookkeeping -- blending every
 state variable with the loop's mask -- is paid once for them), and lanes look for a new walk
 every ``period`` iterations: the restart is a branch every lane of the packet executes when any
 one needs it (a few hundred cycles: a scattered store, an atomic, gathers), so checking less often
@@ -30,8 +30,8 @@ from drjit.llvm import Bool, UInt32
 __all__ = ["run_walks", "UNROLL", "RESTART_PERIOD"]
 
 # Steps per iteration and iterations between looks for ended walks (see the module docstring).
-# Measured for the Volume model (walks of ~25 steps): 2 and 4 beat 1 and 8 by ~10 % and 2 and 2,
-# 2 and 8, 3 and 4 by 5 - 10 %.
+# Measured for the Volume model (walks of ~25 steps): (2, 4) fastest; (2, 2), (2, 3), (3, 3)
+# within 5 %; (1, 6), (1, 8) ~10 % slower.
 UNROLL = 2
 RESTART_PERIOD = 4
 

@@ -209,7 +209,7 @@ class Volume(PSFModel):
                 p=dr.zeros(Array3f, m), w=f.w, dist=dr.gather(Float, dist_all, ray, valid), left=f.left,
                 alive=dr.full(Bool, True, m), count=dr.zeros(UInt32, m), pixel=dr.zeros(UInt32, m), rng=f.rng)
             if null_collisions:
-                photon.steps = dr.full(UInt32, c.max_collisions - 1, m)
+                photon.steps = dr.opaque(UInt32, c.max_collisions - 1) + dr.zeros(UInt32, m)
             return (photon,)
 
         def project(ph, t, u):

@@ -53,8 +53,9 @@ def run_walks(n_walks: int, lanes: int, start: Callable, step: Callable, going: 
         generator included. ``valid`` is False for indices >= n_walks (a lane with nothing left
         to do, which never steps): mask gathers with it.
     step : callable
-        ``step(*state) -> state``: one step. It is also applied to walks that have ended (until
-        their lane restarts) and must then leave what ``store`` records unchanged.
+        ``step(walk, *state) -> state``: one step of walk ``walk``. It is also applied to walks
+        that have ended (until their lane restarts) and must then leave what ``store`` records
+        unchanged.
     going : callable
         ``going(*state) -> Bool``: whether the walk takes another step (checked after each step,
         so a walk takes at least one).
@@ -86,7 +87,7 @@ def run_walks(n_walks: int, lanes: int, start: Callable, step: Callable, going: 
 
     def body(tick, walk, *state):
         for _ in range(unroll):
-            state = step(*state)
+            state = step(walk, *state)
         ended = ~going(*state)
         if period > 1:
             ended &= tick % period == 0

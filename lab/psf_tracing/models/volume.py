@@ -134,6 +134,20 @@ def _emitted(rng, c: VolumeConfig) -> _Emitted:
     return _Emitted(Array3f(r * cp, r * sp, z), left, walk_rng)
 
 
+def _hashed_uniform(ray: UInt32, k: UInt32, key: UInt32) -> Float:
+    """The reservoir's number for a ray's k-th crossing in the image: uniform in [0, 1), a hash
+    (lowbias32) of the ray, k and the launch's ``key``.
+
+    It depends on no number the photon's walk draws, so it is independent of which crossings
+    there are, as reservoir sampling needs; drawing it from the photon's generator instead would
+    cost a draw on every step (drawing in the branch routes the generator through its merge).
+    """
+    x = (ray * 0x9E3779B9) ^ (k * 0x85EBCA6B) ^ key
+    x = (x ^ (x >> 16)) * 0x7FEB352D
+    x = (x ^ (x >> 15)) * 0x846CA68B
+    return Float((x ^ (x >> 16)) >> 8) * 2.0 ** -24
+
+
 def _cone(radius_px: float, focal_px: float) -> tuple[float, float]:
     """The cheap test for crossings that may land in the image: (cos_lo, near_fraction).
 
@@ -201,6 +215,8 @@ class Volume(PSFModel):
         first = _emitted(rng, c)
         dist_all = coords[0]
         dr.eval(first, dist_all)
+        key = dr.gather(UInt32, first.rng.s1, UInt32(0))          # this launch's reservoir hash key
+        dr.make_opaque(key)
 
         def start(ray, valid):
             m = dr.width(ray)
@@ -212,9 +228,9 @@ class Volume(PSFModel):
                 photon.steps = dr.opaque(UInt32, c.max_collisions - 1) + dr.zeros(UInt32, m)
             return (photon,)
 
-        def project(ph, t, u):
+        def project(ray, ph, t):
             """Where the crossing at p + t w lands: a pinhole camera there looking at the light;
-            the reservoir keeps it with probability 1/k (``u`` uniform)."""
+            the reservoir keeps it with probability 1/k."""
             x = dr.fma(ph.w, t, ph.p)
             nrm = dr.select(ph.dist > 1e-6, x * dr.rsqrt(dr.squared_norm(x)), ph.w)
             e1, e2 = frame(nrm)
@@ -223,12 +239,13 @@ class Volume(PSFModel):
             ky = dr.floor(dr.fma(dr.dot(ph.w, e2), inv, 0.5))
             seen = (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi)
             ph.count = dr.select(seen, ph.count + 2, ph.count)
-            take = seen & (u * Float(ph.count >> 1) < 1.0)
+            k = ph.count >> 1
+            take = seen & (_hashed_uniform(ray, k, key) * Float(k) < 1.0)
             packed = UInt32(Int32(kx) + _PIXEL_BIAS) | (UInt32(Int32(ky) + _PIXEL_BIAS) << 16)
             ph.pixel = dr.select(take, packed, ph.pixel)
             return ph
 
-        def step(ph):
+        def step(ray, ph):
             s = -log_unit(1.0 - ph.rng.next_float32()) * inv_sbar
             # outward crossing of |x| = d on the flight [p, p + s w]: the larger root t+
             b = dr.dot(ph.p, ph.w)
@@ -238,10 +255,7 @@ class Volume(PSFModel):
             cross = ph.alive & (disc >= 0) & (t >= 0) & (t <= s)
             reach = ph.dist + escape
             cone = dr.select(ph.dist <= near_fraction * reach, 0.0, cos_lo2 * d2)
-            # the reservoir's number is drawn on every step: drawing it in the branch would route the
-            # generator through the branch's merge, which costs more
-            u = ph.rng.next_float32()
-            ph = dr.if_stmt((ph, t, u), cross & (disc >= cone), project, lambda ph, t, u: ph)
+            ph = dr.if_stmt((ray, ph, t), cross & (disc >= cone), project, lambda ray, ph, t: ph)
             ph.count = ph.count | UInt32(cross)
             ph.p = dr.fma(ph.w, s, ph.p)
             if null_collisions:

@@ -25,7 +25,7 @@ def run(lanes, unroll, period):
     def start(walk, valid):
         return dr.gather(UInt32, lengths, walk, valid), dr.zeros(UInt32, dr.width(walk))
 
-    def step(left, taken):                      # an ended walk (left == 0) records nothing more
+    def step(walk, left, taken):                # an ended walk (left == 0) records nothing more
         going = left > 0
         return dr.select(going, left - 1, left), dr.select(going, taken + 1, taken)
 

@@ -230,3 +230,22 @@ def test_one_absorption_draw_per_photon_is_an_albedo_coin_per_collision(albedo):
     observed = np.append(np.bincount(s, minlength=last + 1)[:last], (s >= last).sum())
     expected = m * np.append((1 - albedo) * albedo ** np.arange(last), albedo ** last)
     assert stats.chisquare(observed, expected).pvalue > 1e-4
+
+
+def test_reservoir_numbers_are_uniform_and_independent_of_the_crossing_index():
+    """The reservoir keeps a ray's k-th crossing in the image with probability 1/k using a number
+    hashed from (ray, k, launch key): uniform over rays for each k (chi-square, 64 bins,
+    p > 1e-4) and uncorrelated between k and k + 1 and between launches."""
+    from scipy import stats
+    from drjit.llvm import UInt32
+    n = 2 ** 18
+    ray = UInt32(np.arange(n, dtype=np.uint32))
+    u = {(k, key): volume._hashed_uniform(ray, UInt32(k), UInt32(key)).numpy()
+         for k in (1, 2, 3) for key in (12345, 67890)}
+    for v in u.values():
+        assert 0.0 <= v.min() and v.max() < 1.0
+        assert stats.chisquare(np.histogram(v, 64, (0, 1))[0]).pvalue > 1e-4
+    bound = 5.0 / np.sqrt(n)
+    assert abs(np.corrcoef(u[1, 12345], u[2, 12345])[0, 1]) < bound
+    assert abs(np.corrcoef(u[2, 12345], u[3, 12345])[0, 1]) < bound
+    assert abs(np.corrcoef(u[1, 12345], u[1, 67890])[0, 1]) < bound

@@ -29,12 +29,19 @@ import math
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array3f, Float
+from drjit.llvm import Array3f, Float, Int32, UInt32
 
 from lab.errors import UserError
 
-__all__ = ["check_g", "hg_pdf", "hg_cdf", "hg_sample", "frame", "scatter_direction", "exp_step",
-           "woodcock_distance"]
+__all__ = ["check_g", "hg_pdf", "hg_cdf", "hg_sample", "frame", "unit_circle", "scatter_direction",
+           "log_unit", "exp_step", "woodcock_distance"]
+
+# Minimax polynomials of sin and cos on [-pi/4, pi/4] (Cephes sinf/cosf; error < 1e-7 there)
+_SIN = (-1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4)
+_COS = (4.166664568298827e-2, -1.388731625493765e-3, 2.443315711809948e-5)
+# ln(1 + f) - f + f^2 / 2 = f^3 P(f) on [sqrt(1/2) - 1, sqrt(2) - 1] (Cephes logf), highest power first
+_LOG = (7.0376836292e-2, -1.1514610310e-1, 1.1676998740e-1, -1.2420140846e-1, 1.4249322787e-1,
+        -1.6668057665e-1, 2.0000714765e-1, -2.4999993993e-1, 3.3333331174e-1)
 
 
 def check_g(g: float, name: str = "g") -> float:
@@ -69,9 +76,8 @@ def hg_sample(g, u):
     inv_s2 = dr.rcp(s * s)
     omc = gm * gm * um * (gp + s) * inv_s2    # 1 - mu
     opc = gp * gp * u * (gm + s) * inv_s2     # 1 + mu
-    mu = dr.select(omc < opc, 1.0 - omc, opc - 1.0)
-    sin = dr.sqrt(dr.maximum(omc * opc, 0.0))
-    return dr.clip(mu, -1.0, 1.0), sin
+    mu = dr.select(omc < opc, 1.0 - omc, opc - 1.0)    # in [-1, 1]: omc, opc >= 0, the smaller < 1
+    return mu, dr.sqrt(omc * opc)
 
 
 def frame(w: Array3f):
@@ -83,16 +89,91 @@ def frame(w: Array3f):
             Array3f(b, sign + w.y * w.y * a, -w.y))
 
 
+def unit_circle(u):
+    """The point at angle 2 pi ``u`` on the unit circle: a uniform azimuth's direction.
+
+    ``dr.sincos`` reduces arbitrary arguments; here 4 u splits into a quarter turn q = round(4 u)
+    and a rest x = (4 u - q) pi / 2 in [-pi/4, pi/4] (4 u - q is exact), where short polynomials
+    are accurate to float precision (2e-7, against dr.sincos(2 pi u)'s 4e-7); the quarter turns
+    swap and negate them.
+
+    Parameters
+    ----------
+    u : Float
+        Fractions of a turn, in [0, 1].
+
+    Returns
+    -------
+    (Float, Float)
+        cos(2 pi u), sin(2 pi u).
+    """
+    v = 4.0 * u
+    q = dr.round(v)
+    x = (v - q) * (0.5 * math.pi)
+    z = x * x
+    sin = dr.fma(x * z, dr.fma(dr.fma(_SIN[2], z, _SIN[1]), z, _SIN[0]), x)
+    cos = dr.fma(z * z, dr.fma(dr.fma(_COS[2], z, _COS[1]), z, _COS[0]), dr.fma(-0.5, z, 1.0))
+    quarter = Int32(q)
+    odd = (quarter & 1) == 1
+    c, s = dr.select(odd, sin, cos), dr.select(odd, cos, sin)     # turn by q quarters:
+    c = dr.select(((quarter + 1) & 2) == 2, -c, c)                 # q = 1, 2: cos < 0
+    s = dr.select((quarter & 2) == 2, -s, s)                       # q = 2, 3: sin < 0
+    return c, s
+
+
 def scatter_direction(w: Array3f, mu, sin, phi_u) -> Array3f:
-    """The unit direction at angle acos(mu) from ``w``, azimuth 2 pi ``phi_u`` about it."""
-    t, b = frame(w)
-    sp, cp = dr.sincos(2.0 * math.pi * phi_u)
-    return dr.normalize(w * mu + (t * cp + b * sp) * sin)
+    """The unit direction at angle acos(mu) from ``w``, azimuth 2 pi ``phi_u`` about it.
+
+    The azimuth is measured in :func:`frame`'s basis (t, b): the direction is mu w + sin v with
+    v = cos(phi) t + sin(phi) b, which with Duff's t and b expands to v = (cos(phi) + x A,
+    sign sin(phi) + y A, -B), B = sign x cos(phi) + y sin(phi), A = a B (same a and sign):
+    fewer multiplications than building t and b.
+    """
+    cp, sp = unit_circle(phi_u)
+    a = -1.0 / (w.z + dr.copysign(1.0, w.z))                # sign = the sign bit of w.z
+    big_b = dr.fma(dr.mulsign(w.x, w.z), cp, w.y * sp)
+    big_a = a * big_b
+    v = Array3f(dr.fma(w.x, big_a, cp), dr.fma(w.y, big_a, dr.mulsign(sp, w.z)), -big_b)
+    out = dr.fma(v, sin, w * mu)
+    # |out| = 1 up to rounding (~1e-7); one Newton step for 1/|out| keeps it there over any
+    # number of scatterings, at less cost than dr.normalize
+    return out * dr.fma(dr.squared_norm(out), -0.5, 1.5)
+
+
+def log_unit(x):
+    """The natural logarithm on (0, 1]: ``dr.log`` without its handling of 0, negative, infinite
+    and NaN arguments, which a free flight never passes (Cephes logf; within 1 ulp).
+
+    x = m 2^e with m in [sqrt(1/2), sqrt(2)), ln x = e ln 2 + ln m, ln m a polynomial in m - 1;
+    ln 2 is split in two parts so e ln 2 adds no rounding error.
+
+    Parameters
+    ----------
+    x : Float
+        Normal floats in (0, 1] (e.g. 1 - u for u uniform on the 2^-24 grid).
+
+    Returns
+    -------
+    Float
+        ln x.
+    """
+    bits = dr.reinterpret_array(UInt32, x)
+    e = Int32(bits >> 23) - 126                                     # x = m 2^e, m in [1/2, 1)
+    m = dr.reinterpret_array(Float, (bits & 0x007FFFFF) | 0x3F000000)
+    low = m < math.sqrt(0.5)
+    e = Float(dr.select(low, e - 1, e))
+    f = dr.select(low, m + m, m) - 1.0
+    z = f * f
+    p = _LOG[0]
+    for coeff in _LOG[1:]:
+        p = dr.fma(p, f, coeff)
+    y = dr.fma(e, -2.12194440e-4, p * f * z)
+    return dr.fma(e, 0.693359375, f + dr.fma(z, -0.5, y))
 
 
 def exp_step(sigma, u):
     """Exponential free flight of rate ``sigma`` (1/m) from uniform ``u`` in [0, 1): -ln(1 - u) / sigma."""
-    return -dr.log(1.0 - u) / sigma
+    return -log_unit(1.0 - u) / sigma
 
 
 def woodcock_distance(sigma_t: float, majorant: float, rng, max_steps: int = 10_000, limit: float = math.inf):

@@ -44,7 +44,7 @@ class VolumeConfig:
     beta : float, default 1.0
         Power-remapping exponent of the distance (LSR18: 1.0).
     psf_resolution : int, default 255
-        R, the PSF image edge in pixels; the halo beyond it is cut off.
+        R, the PSF image edge in pixels (at most 65535); the halo beyond it is cut off.
     rays_per_psf : int, default 2**23
         Photons traced per PSF.
     rays_per_launch : int, default 2**22
@@ -99,6 +99,9 @@ class VolumeConfig:
                      "rays_per_launch"):
             check_number(name, getattr(self, name), integer=True)
         check_number("seed", self.seed, integer=True, zero_ok=True)
+        if self.psf_resolution > 65535:
+            raise UserError(f"psf_resolution = {self.psf_resolution}: at most 65535 (pixel offsets are "
+                            "stored in 16 bits)")
         if self.rays_per_launch > MAX_RAYS_PER_LAUNCH:
             raise UserError(f"rays_per_launch = {self.rays_per_launch}: at most {MAX_RAYS_PER_LAUNCH}")
 

@@ -1,5 +1,6 @@
 """Volume: a point light in a homogeneous medium (Woodcock tracking, Henyey-Greenstein), RGB,
 checked against Beer-Lambert and the single-scattering integral."""
+import functools
 import math
 
 import numpy as np
@@ -9,8 +10,10 @@ from scipy import integrate
 from lab.config import from_table
 from lab.errors import UserError
 from lab.optics.media import hg_pdf
-from lab.psf_tracing.models import get_model, load_model
+from lab.psf_tracing import walks
+from lab.psf_tracing.models import get_model, load_model, volume
 from lab.psf_tracing.models.volume import Volume, VolumeConfig
+from lab.psf_tracing.tracer import lane_rng
 
 
 def test_registered_with_lsr18_defaults():
@@ -147,3 +150,102 @@ def test_the_psf_carries_the_media_losses():
                                 max_distance_m=d + 0.01))
     e = foggy.trace(0).sum(axis=(0, 1))
     assert np.all(e > expected) and np.all(e < 1.0) and e[2] < e[0]
+
+
+# --- the fast tracer against the plain reference (tests/lab/psf_tracing/volume_reference.py) ----
+
+RINGS_PX = (0.0, 0.5, 4.0, 16.0, 48.0, 125.0)      # centre pixel, then octave-ish rings to the edge
+
+
+def _rings(counts):
+    """Weighted crossings per ring and channel: (len(RINGS_PX) - 1, 3)."""
+    res = counts.shape[0]
+    rr = np.hypot(*(np.mgrid[:res, :res] - res // 2))
+    return np.array([counts[(rr >= a) & (rr < b)].sum(axis=0) for a, b in zip(RINGS_PX, RINGS_PX[1:])])
+
+
+@pytest.mark.parametrize("table, distance", [
+    ({}, 4.99),                                                   # the benchmark's cell: ~25 collisions
+    ({"g": -0.6, "albedo": (0.3, 0.6, 1.0), "medium_density": 1.5}, 1.2),
+])
+def test_the_fast_tracer_matches_the_plain_reference(table, distance):
+    """Persistent lanes, one absorption draw per photon, channels by ray index, the cone test and
+    the 32-bit generator change how a photon is traced, not what it does: per channel and per
+    ring the light in the image agrees with the textbook tracer (random channel, an albedo coin
+    per collision, every crossing projected, PCG32). Counts are sums of ~Poisson events (weights
+    k are 1 for all but ~1e-3 of the rays); each of the 15 comparisons may differ by 5 sigma of
+    the two estimates combined (with the reference's binomial channel sizes), a false alarm
+    once in ~10^5 runs."""
+    from volume_reference import reference_trace
+    c = VolumeConfig(**table)
+    n = 2 ** 22
+    fast = Volume(c).trace_box((distance,), (distance,), n_rays=n, seed=11)
+    ref = reference_trace(c, distance, n, seed=12)
+    a, b = _rings(fast.counts) / (n / 3), _rings(ref.counts) / (n / 3)
+    sigma = np.sqrt(a / (n / 3) + b / (n / 3) + (b * np.sqrt(2.0 / n)) ** 2)
+    assert np.all(np.abs(a - b) <= 5 * sigma), (a, b, (a - b) / sigma)
+    assert np.all(a[1:].sum(axis=0) > 0.05 * a.sum(axis=0))       # a real halo was compared
+
+
+def _same_trace(model, distance, n=2 ** 18, seed=4):
+    return model.trace_box((distance,), (distance,), n_rays=n, seed=seed).counts
+
+
+@pytest.mark.parametrize("table, distance", [({}, 4.99), ({}, 0.3), ({"focal_length_mm": 18.0, "width_px": 100,
+                                                                       "psf_resolution": 101}, 2.0)])
+def test_the_cone_test_never_drops_a_crossing_the_camera_sees(monkeypatch, table, distance):
+    """The walk projects a crossing only if it lies within a cone around the sphere's normal
+    (:func:`volume._cone`). Projecting every crossing instead gives bitwise the same PSF: the cone
+    is conservative (far field, the near-distance fallback, a wide field of view)."""
+    model = Volume(VolumeConfig(**table))
+    fast = _same_trace(model, distance)
+    monkeypatch.setattr(volume, "_cone", lambda radius_px, focal_px: (0.0, 1e30))
+    assert np.array_equal(_same_trace(model, distance), fast) and fast.sum() > 0
+
+
+def test_the_psf_does_not_depend_on_how_photons_are_spread_over_lanes(monkeypatch):
+    """A photon's random numbers come from its ray's generator, so the lanes, the steps per loop
+    iteration and the restart period change nothing, bitwise."""
+    model = Volume(VolumeConfig(psf_resolution=65))
+    base = _same_trace(model, 3.0)
+    monkeypatch.setattr(volume, "WALK_LANES", 1000)
+    monkeypatch.setattr(walks, "run_walks", functools.partial(walks.run_walks, unroll=3, period=1))
+    monkeypatch.setattr(volume, "run_walks", walks.run_walks)
+    assert np.array_equal(_same_trace(model, 3.0), base)
+
+
+@pytest.mark.parametrize("albedo", [0.9, 0.5])
+def test_one_absorption_draw_per_photon_is_an_albedo_coin_per_collision(albedo):
+    """The photon survives S real collisions, S = floor(ln u / ln albedo): P(S >= j) = albedo^j,
+    as with an independent coin at each collision. Chi-square of S against the geometric law
+    (bins with >= 5 expected photons, the tail pooled), p > 1e-4."""
+    from scipy import stats
+    c = VolumeConfig(albedo=(albedo, 1.0, 0.0))
+    n = 3 * 2 ** 18
+    first = volume._emitted(lane_rng(n, 8), c)
+    left = first.left.numpy().reshape(-1, 3)
+    assert np.all(left[:, 1] == c.max_collisions - 1) and np.all(left[:, 2] == 0)   # albedo 1 and 0
+    s, m = left[:, 0], n // 3
+    last = int(np.floor(np.log(5.0 / m) / np.log(albedo)))          # P(S = j) m >= ~5 up to here
+    observed = np.append(np.bincount(s, minlength=last + 1)[:last], (s >= last).sum())
+    expected = m * np.append((1 - albedo) * albedo ** np.arange(last), albedo ** last)
+    assert stats.chisquare(observed, expected).pvalue > 1e-4
+
+
+def test_reservoir_numbers_are_uniform_and_independent_of_the_crossing_index():
+    """The reservoir keeps a ray's k-th crossing in the image with probability 1/k using a number
+    hashed from (ray, k, launch key): uniform over rays for each k (chi-square, 64 bins,
+    p > 1e-4) and uncorrelated between k and k + 1 and between launches."""
+    from scipy import stats
+    from drjit.llvm import UInt32
+    n = 2 ** 18
+    ray = UInt32(np.arange(n, dtype=np.uint32))
+    u = {(k, key): volume._hashed_uniform(ray, UInt32(k), UInt32(key)).numpy()
+         for k in (1, 2, 3) for key in (12345, 67890)}
+    for v in u.values():
+        assert 0.0 <= v.min() and v.max() < 1.0
+        assert stats.chisquare(np.histogram(v, 64, (0, 1))[0]).pvalue > 1e-4
+    bound = 5.0 / np.sqrt(n)
+    assert abs(np.corrcoef(u[1, 12345], u[2, 12345])[0, 1]) < bound
+    assert abs(np.corrcoef(u[2, 12345], u[3, 12345])[0, 1]) < bound
+    assert abs(np.corrcoef(u[1, 12345], u[1, 67890])[0, 1]) < bound

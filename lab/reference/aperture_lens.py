@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 
 from .backend import mitsuba
+from .python_sensor import point_bbox, ray_differential
 
 PLUGIN = "splatlab_aperture_thinlens"
 SHAPE_PARAMS = ("blades", "rotation_deg", "rounding", "path")   # plugin properties an aperture takes
@@ -69,13 +70,8 @@ def register() -> str:
             ray = mi.Ray3f(mi.Point3f(origin), direction, far_t - near_t, time, mi.Color0f())
             return ray, mi.Spectrum(1.0)
 
-        def sample_ray_differential(self, time, sample1, sample2, sample3, active=True):
-            ray, weight = self.sample_ray(time, sample1, sample2, sample3, active)
-            return mi.RayDifferential3f(ray), weight
-
-        def bbox(self):
-            p = self.world_transform() @ mi.Point3f(0.0, 0.0, 0.0)
-            return mi.ScalarBoundingBox3f(mi.ScalarPoint3f(p.x[0], p.y[0], p.z[0]))
+        sample_ray_differential = ray_differential
+        bbox = point_bbox
 
         def to_string(self):
             return (f"ApertureThinLens[aperture={self.iris}, aperture_radius={self.radius}, "

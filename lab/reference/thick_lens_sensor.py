@@ -25,6 +25,7 @@ import json
 import math
 
 from .backend import mitsuba
+from .python_sensor import point_bbox, ray_differential
 
 PLUGIN = "splatlab_thick_lens"
 
@@ -76,13 +77,8 @@ def register() -> str:
             ray = mi.Ray3f(mi.Point3f(to_world @ origin), mi.Vector3f(to_world @ direction), time, mi.Color0f())
             return ray, mi.Spectrum(mi.Float(weight))
 
-        def sample_ray_differential(self, time, sample1, sample2, sample3, active=True):
-            ray, weight = self.sample_ray(time, sample1, sample2, sample3, active)
-            return mi.RayDifferential3f(ray), weight
-
-        def bbox(self):
-            p = self.world_transform() @ mi.Point3f(0.0, 0.0, 0.0)
-            return mi.ScalarBoundingBox3f(mi.ScalarPoint3f(p.x[0], p.y[0], p.z[0]))
+        sample_ray_differential = ray_differential
+        bbox = point_bbox
 
         def to_string(self):
             return (f"ThickLensSensor[wavelength_nm={self.wavelength}, sensor_z_mm={self.pupil.sensor_z_mm:.4f}, "

@@ -47,6 +47,20 @@ def dense_row_spans(db: SpreadletDatabase) -> tuple:
     return span_off, span, pixels
 
 
+def dense_boxes(db: SpreadletDatabase, span_off: np.ndarray, span: np.ndarray) -> np.ndarray:
+    """(n, 4) int32: each dense PSF's non-zero box as offsets from its centre, (x0, x1, y0, y1)
+    inclusive; (0, -2, 0, -2) for an all-zero PSF. Turned PSFs are sampled only inside it
+    (``kernels/spreadlets/rotate.cl`` turned_cols)."""
+    box = np.tile(np.array([0, -2, 0, -2], np.int32), (db.n_samples, 1))
+    for i in range(db.n_samples):
+        rows = span[span_off[i]:span_off[i + 1]]
+        has = np.flatnonzero(rows[:, 1] > rows[:, 0])
+        if len(has):
+            r = int(db.dense_radius[i])
+            box[i] = (rows[has, 0].min() - r, rows[has, 1].max() - 1 - r, has[0] - r, has[-1] - r)
+    return box
+
+
 class DeviceDatabase:
     """Read-only device buffers of one :class:`SpreadletDatabase` plus its PSF-space tables.
 
@@ -64,9 +78,10 @@ class DeviceDatabase:
     Attributes
     ----------
     buffers : dict of str -> pyopencl.Buffer
-        ``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n, dense_sum, psf_thr,
-        psf_bucket`` (``span*``, ``dense_n``: :func:`dense_row_spans`; ``dense_sum``: each dense
-        PSF's sum per channel, the energy a turned PSF keeps).
+        ``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n, dense_box,
+        dense_sum, psf_thr, psf_bucket`` (``span*``, ``dense_n``: :func:`dense_row_spans`;
+        ``dense_box``: :func:`dense_boxes`; ``dense_sum``: each dense PSF's sum per channel, the
+        energy a turned PSF keeps).
     options : list of str
         ``-D`` options every kernel reading this database needs (PSF space, DC, PAD).
     base_options : list of str
@@ -89,6 +104,7 @@ class DeviceDatabase:
             "C": db.C, "P": db.P[order], "V": db.V[order], "fast": db.fast_track.astype(np.uint8),
             "dense_r": db.dense_radius, "dense_off": db.dense_offsets, "dense_v": db.dense_values,
             "span_off": span_off, "span": span, "dense_n": dense_n,
+            "dense_box": dense_boxes(db, span_off, span),
             "dense_sum": np.add.reduceat(db.dense_values, db.dense_offsets[:-1], axis=0,
                                          dtype=np.float64).astype(np.float32),
             "psf_thr": self.tables.thr, "psf_bucket": self.tables.bucket,

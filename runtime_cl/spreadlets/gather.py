@@ -36,7 +36,7 @@ class GatherFilter:
         files = ("psf/psf_space.cl", "prelude/pixels.cl") + rotate + ("spreadlets/gather.cl",)
         program, self.build = self.device.program(files, options)
         self.kernel = cl.Kernel(program, "filter_gather")
-        self.kernel.set_scalar_arg_dtypes([None] * 11 + [np.int32] * 2)
+        self.kernel.set_scalar_arg_dtypes([None] * 12 + [np.int32] * 2)
         self._no_angle = None
         self.device.warm_up(self.build, lambda: self._warm_up(colour_channels))
 
@@ -79,7 +79,7 @@ class GatherFilter:
         out_buf = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, out.nbytes)
         counts_buf = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, counts.nbytes)
         ev = self.kernel(q, (height,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"],
-                         b["dense_r"], b["dense_off"], b["dense_v"], b["dense_sum"], out_buf, counts_buf,
+                         b["dense_r"], b["dense_off"], b["dense_v"], b["dense_sum"], b["dense_box"], out_buf, counts_buf,
                          height, width)
         ev_down = cl.enqueue_copy(q, out, out_buf, wait_for=[ev], is_blocking=False)
         ev_counts = cl.enqueue_copy(q, counts, counts_buf, wait_for=[ev], is_blocking=False)

@@ -131,7 +131,7 @@ class TileSplatter:
         files = ("psf/psf_space.cl", "prelude/pixels.cl") + rotate + ("spreadlets/splat.cl",)
         program, self.build = self.device.program(files, options)
         self.splat_kernel = cl.Kernel(program, "splat_tiles")
-        self.splat_kernel.set_scalar_arg_dtypes([None] * 18 + [np.int32] * 5)
+        self.splat_kernel.set_scalar_arg_dtypes([None] * 19 + [np.int32] * 5)
         self.merge_kernel = cl.Kernel(program, "merge_tiles")
         self.merge_kernel.set_scalar_arg_dtypes([None, None] + [np.int32] * 6)
         self._scratch: dict = {}
@@ -219,7 +219,7 @@ class TileSplatter:
         ev_splat = self.splat_kernel(
             q, (ntiles,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"], b["C"], b["P"],
             b["V"], b["fast"], b["dense_r"], b["dense_off"], b["dense_v"], b["span_off"], b["span"], b["dense_n"],
-            b["dense_sum"], tiles_buf, counts_buf,
+            b["dense_sum"], b["dense_box"], tiles_buf, counts_buf,
             height, width, tw, th, tiles_x)
         ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
                                      wait_for=[ev_splat])

@@ -18,12 +18,14 @@
 // its support) whose input pixel lies inside the image.
 inline pix_t gather_rotated(__global const float *colour, const int H, const int W, const int x,
                             const int y, const int r, __global const float *psf, const float4 stored,
-                            const float2 cs, long *n) {
+                            const float4 box, const float2 cs, long *n) {
     const int reach = turned_reach(r, cs);
     pix_t acc = (pix_t)0.0f;
     float4 turned = (float4)0.0f, v;
+    int lo, hi;
     for (int dy = -reach; dy <= reach; ++dy) {
-        for (int dx = -reach; dx <= reach; ++dx) {
+        turned_cols(cs, box, reach, dy, &lo, &hi);
+        for (int dx = lo; dx <= hi; ++dx) {
             if (!turned_value(psf, r, cs, dx, dy, &v)) continue;
             turned += v;
             const int sx = x - dx, sy = y - dy;
@@ -45,6 +47,7 @@ __kernel void filter_gather(__global const float *colour,      // (H, W, CC)
                             __global const long *dense_off,    // (n+1,)
                             __global const float *dense_v,     // (sum, DC)
                             __global const float *dense_sum,   // (n, DC) sums (read if ROTATE)
+                            __global const int4 *dense_box,    // (n,) non-zero box (read if ROTATE)
                             __global float *out,               // (H, W, OC)
                             __global long *counts,             // (H,) PSF pixels gathered per row
                             const int H, const int W) {
@@ -57,7 +60,7 @@ __kernel void filter_gather(__global const float *colour,      // (H, W, CC)
         __global const float *psf = dense_v + dense_off[cell] * DC;
 #if ROTATE
         const pix_t acc = gather_rotated(colour, H, W, x, y, r, psf, stored_sum(dense_sum, cell),
-                                         rotation_cs(angle[(long)y * W + x]), &n);
+                                         support_box(dense_box, cell), rotation_cs(angle[(long)y * W + x]), &n);
 #else
         const int side = 2 * r + 1;
         pix_t acc = (pix_t)0.0f;

@@ -141,19 +141,24 @@ inline void splat_spreadlets_rotated(__global pix_t *lap, const int buf_w, __glo
 // The dense PSF of radius r turned by cs (spreadlets/rotate.cl: inverse-mapped, scaled to keep its energy)
 // times the colours of a run of n pixels; dst: the tile position of the run's first pixel.
 inline void splat_dense_rotated(__global pix_t *dst, const int buf_w, const pix_t *run_col, const int n,
-                                const int r, __global const float *dv, const float4 stored, const float2 cs) {
+                                const int r, __global const float *dv, const float4 stored, const float4 box,
+                                const float2 cs) {
     const int reach = turned_reach(r, cs);
     float4 scale = (float4)1.0f, v;
+    int lo, hi;
     if (!is_quarter_turn(cs)) {
         float4 turned = (float4)0.0f;
-        for (int dy = -reach; dy <= reach; ++dy)
-            for (int dx = -reach; dx <= reach; ++dx)
+        for (int dy = -reach; dy <= reach; ++dy) {
+            turned_cols(cs, box, reach, dy, &lo, &hi);
+            for (int dx = lo; dx <= hi; ++dx)
                 if (turned_value(dv, r, cs, dx, dy, &v)) turned += v;
+        }
         scale = energy_scale(stored, turned);
     }
     for (int dy = -reach; dy <= reach; ++dy) {
         __global pix_t *row = dst + (long)dy * buf_w;
-        for (int dx = -reach; dx <= reach; ++dx) {
+        turned_cols(cs, box, reach, dy, &lo, &hi);
+        for (int dx = lo; dx <= hi; ++dx) {
             if (!turned_value(dv, r, cs, dx, dy, &v)) continue;
             const pix_t w = TO_PIX(v * scale);
             for (int k = 0; k < n; ++k) row[dx + k] += w * run_col[k];
@@ -178,6 +183,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                           __global const int2 *span,         // (rows,) non-zero [first, end) per row
                           __global const long *dense_n,      // (n,) pixels inside the spans
                           __global const float *dense_sum,   // (n, DC) sums (read if ROTATE)
+                          __global const int4 *dense_box,    // (n,) non-zero box (read if ROTATE)
                           __global pix_t *tiles,             // (ntiles, GROUPS, buf_h, buf_w)
                           __global long *counts,             // (ntiles, 2): spreadlets, dense px
                           const int H, const int W, const int tile_w, const int tile_h,
@@ -236,7 +242,8 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #if ROTATE
                 if (turned)
                     splat_dense_rotated(tile + DENSE_GROUP * group_stride + centre, buf_w, run_col, n, r,
-                                        dense_v + dense_off[cell] * DC, stored_sum(dense_sum, cell), cs);
+                                        dense_v + dense_off[cell] * DC, stored_sum(dense_sum, cell),
+                                        support_box(dense_box, cell), cs);
                 else
 #endif
                 splat_dense(tile + DENSE_GROUP * group_stride + centre - ((long)r * buf_w + r),

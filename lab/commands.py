@@ -132,6 +132,9 @@ def _check_render_options(args, cls) -> None:
                         f"MODEL --out FILE); only --method {free} work without one")
     if cls.database_models == () and args.db is not None:
         raise UserError(f"--db {args.db}: --method {args.method} uses no PSF database; drop --db")
+    if args.far_db is not None and not cls.far_field:
+        raise UserError(f"--far-db {args.far_db}: --method {args.method} does not add far fields; use it with "
+                        "--method spreadlets, splat or filter and a volume --db")
     if not cls.draws_aperture and args.aperture is not None:
         raise UserError(f"--aperture {args.aperture}: --method {args.method} draws its database's PSFs; "
                         "--aperture is for a method that draws the aperture (--method polygon)")
@@ -158,6 +161,9 @@ def cmd_render(args) -> int:
     if cls.draws_aperture:
         aperture = _render_aperture(args, image)
         options["aperture"] = aperture.splatter
+    if args.far_db is not None:
+        options["far_field"] = SpreadletDatabase.load(args.far_db, expect_model="volume_far")
+        check_header(options["far_field"], image.camera, f"{args.input} camera")
     frame = frame_of(image, str(args.input), db, options.get("layered_input", False))
     rendered, timing = run_pass(args.method, frame, runtime_camera(image, f"{args.input} camera"), db, **options)
     write_rgb(args.out, rendered[..., :3])

@@ -189,7 +189,9 @@ def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False) -
     report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
-        print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
+        corrected = m.get("noise_corrected_psnr")
+        said = f"   noise-corrected PSNR {corrected:.2f} dB" if corrected is not None else ""
+        print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB{said}")
     floor = report["reference"].get("noise_floor")
     if floor:
         print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")

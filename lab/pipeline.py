@@ -134,9 +134,15 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
     ``executor`` (default: this process) runs the reference's passes and the databases' cells;
     ``noise`` measures the reference's noise floor (see :func:`inputs_and_reference`).
     """
+    scene, plan = load_scene_and_plan(scene_path)
+    return report_scene(scene, plan, out_dir, baseline, progress, executor, noise)
+
+
+def report_scene(scene: Scene, plan: Plan, out_dir=None, baseline=None, progress: bool = True,
+                 executor: Executor | None = None, noise: bool = False) -> dict:
+    """:func:`run_report` on a loaded scene and its plan."""
     from .report.build import assemble_report
 
-    scene, plan = load_scene_and_plan(scene_path)
     out_dir = Path(out_dir) if out_dir else default_out_dir(scene)
     baseline_report = None
     if baseline is not None:

@@ -1,0 +1,211 @@
+// Lens rays through layered height fields (LES09 4.3, LES10 3) for a thin lens.
+//
+// A lens ray of pixel centre p through the unit-disc lens sample xi is, in the pinhole image of
+// the lens centre and parametrised by inverse depth w = 1/z, the straight line
+//     q(w) = a + b w,   a = p - xi S / F,   b = xi S
+// (S: CoC scale in px per dioptre, F: focus distance), so q(1/F) = p and q moves by the CoC
+// |C(z)| = S |1/F - 1/z| from p at depth z.
+//
+// Layer k's pixel c is a surfel: its cell [cx, cx+1) x [cy, cy+1) at inverse depth h (0 at
+// infinity, < 0 empty), solid over the slab h - THICK <= w <= h. A ray hits it where q(w) lies in
+// the cell and w in the slab. The ray's hit is the largest such w over all layers (the nearest
+// surface), ties to the lower layer. A slab, not a solid height field: a ray that passes beside
+// a near surfel and then behind it goes on (what the pinhole view hides, the peeled layers hold);
+// THICK = t_px / S makes the slab t_px pixels of ray travel deep, so neighbours of a continuous
+// surface whose CoCs differ by less than that leave no gap.
+//
+// Per layer the search runs on the part of the ray inside the image, in front of the best hit so
+// far, clamped by min/max inverse depths (LES10): CLAMP_ITERS times, the footprint of the segment
+// (the bounding box of its end points) is looked up in an N-buffer over the layer down-sampled by
+// DS (four overlapping squares, Decoret 2005), and the segment cut to [min - THICK, max]. An
+// empty footprint culls the layer. The rest is walked cell by cell (exact 2D DDA, near to far).
+//
+// Constants (-D): W, H, NL (layers), NRAYS, NSAMPLES (lens samples, 2 NRAYS), DS, W4, H4 (the
+// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS.
+
+typedef struct {
+    float w;      // inverse depth of the hit, -1: none
+    int layer;    // -1: none
+    int cell;     // y W + x of the hit cell
+} hit_t;
+
+// (min h, max h) of layer k over down-sampled cells [cx0, cx1] x [cy0, cy1] (conservative).
+static float2 nbuffer_query(global const float2 *nbuf, int k, int cx0, int cy0, int cx1, int cy1)
+{
+    int n = max(cx1 - cx0, cy1 - cy0) + 1;
+    int lv = min(31 - (int)clz(n), LEVELS - 1);
+    int size = 1 << lv;
+    int xa = cx0, xb = max(cx1 - size + 1, 0), ya = cy0, yb = max(cy1 - size + 1, 0);
+    global const float2 *level = nbuf + ((size_t)k * LEVELS + lv) * (W4 * H4);
+    float2 r0 = level[ya * W4 + xa], r1 = level[ya * W4 + xb];
+    float2 r2 = level[yb * W4 + xa], r3 = level[yb * W4 + xb];
+    return (float2)(fmin(fmin(r0.x, r1.x), fmin(r2.x, r3.x)), fmax(fmax(r0.y, r1.y), fmax(r2.y, r3.y)));
+}
+
+// Cut [*wa, *wb] of layer k to the min/max inverse depths under its footprint; false: no hit.
+static bool clamp_segment(global const float2 *nbuf, int k, float2 a, float2 b, float thick,
+                          float *wa, float *wb)
+{
+    for (int it = 0; it < CLAMP_ITERS; ++it) {
+        float2 qa = a + b * *wa, qb = a + b * *wb;
+        int x0 = clamp((int)floor(fmin(qa.x, qb.x)), 0, W - 1), x1 = clamp((int)floor(fmax(qa.x, qb.x)), 0, W - 1);
+        int y0 = clamp((int)floor(fmin(qa.y, qb.y)), 0, H - 1), y1 = clamp((int)floor(fmax(qa.y, qb.y)), 0, H - 1);
+        float2 m = nbuffer_query(nbuf, k, x0 / DS, y0 / DS, x1 / DS, y1 / DS);
+        *wa = fmax(*wa, m.x - thick);
+        *wb = fmin(*wb, m.y);
+        if (*wa > *wb)
+            return false;
+        if (x1 - x0 < DS && y1 - y0 < DS)
+            break;   // one or two down-sampled cells: the walk is as cheap as another look-up
+    }
+    return true;
+}
+
+// Walk layer k's cells under q(w) for w from wb down to wa; the first surfel slab hit with
+// w > best->w becomes the best hit.
+static void walk_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
+                       float thick, hit_t *best)
+{
+    float2 q0 = a + b * wb;
+    float len = wb - wa;
+    int ix = clamp((int)floor(q0.x), 0, W - 1), iy = clamp((int)floor(q0.y), 0, H - 1);
+    float dx = -b.x, dy = -b.y;             // dq / d(wb - w): near to far
+    int sx = dx > 0.0f ? 1 : -1, sy = dy > 0.0f ? 1 : -1;
+    float tmx = dx > 0.0f ? (ix + 1 - q0.x) / dx : dx < 0.0f ? (ix - q0.x) / dx : INFINITY;
+    float tmy = dy > 0.0f ? (iy + 1 - q0.y) / dy : dy < 0.0f ? (iy - q0.y) / dy : INFINITY;
+    float tdx = dx != 0.0f ? 1.0f / fabs(dx) : INFINITY, tdy = dy != 0.0f ? 1.0f / fabs(dy) : INFINITY;
+    float tin = 0.0f;
+    global const float *layer = height + (size_t)k * W * H;
+    for (;;) {
+        float tout = fmin(fmin(tmx, tmy), len);
+        float h = layer[iy * W + ix];
+        if (h >= 0.0f) {
+            float whi = fmin(h, wb - tin), wlo = fmax(h - thick, wb - tout);
+            if (wlo <= whi && whi > best->w) {
+                best->w = whi;
+                best->layer = k;
+                best->cell = iy * W + ix;
+                return;
+            }
+        }
+        if (tout >= len)
+            return;
+        if (tmx < tmy) {
+            ix += sx;
+            tin = tmx;
+            tmx += tdx;
+        } else {
+            iy += sy;
+            tin = tmy;
+            tmy += tdy;
+        }
+        if (ix < 0 || ix >= W || iy < 0 || iy >= H)
+            return;
+    }
+}
+
+// The w-range of q(w) = a + b w inside [0, W) x [0, H), within [lo, hi]; false if none.
+static bool clip_to_image(float2 a, float2 b, float *lo, float *hi)
+{
+    float2 size = (float2)(W, H);
+    for (int i = 0; i < 2; ++i) {
+        float ai = i ? a.y : a.x, bi = i ? b.y : b.x, si = i ? size.y : size.x;
+        if (bi == 0.0f) {
+            if (ai < 0.0f || ai >= si)
+                return false;
+            continue;
+        }
+        float w1 = -ai / bi, w2 = (si - ai) / bi;
+        *lo = fmax(*lo, fmin(w1, w2));
+        *hi = fmin(*hi, fmax(w1, w2));
+    }
+    return *lo <= *hi;
+}
+
+// The nearest surfel hit of the ray (a, b) over every layer; *left: part of [0, wmax] is off the image.
+static hit_t trace_ray(global const float *height, global const float2 *nbuf, global const float2 *range,
+                       float2 a, float2 b, float wmax, float thick, bool *left)
+{
+    hit_t best = {-1.0f, -1, -1};
+    float lo = 0.0f, hi = wmax;
+    bool inside = clip_to_image(a, b, &lo, &hi);
+    *left = !inside || lo > 0.0f || hi < wmax;
+    if (!inside)
+        return best;
+    for (int k = 0; k < NL; ++k) {
+        float2 r = range[k];
+        float wa = fmax(fmax(lo, r.x - thick), best.w), wb = fmin(hi, r.y);
+        if (r.y < 0.0f || wa > wb)
+            continue;   // an empty layer, or nothing of it in front of the best hit
+        if (!clamp_segment(nbuf, k, a, b, thick, &wa, &wb))
+            continue;
+        walk_layer(height, k, a, b, wa, wb, thick, &best);
+    }
+    return best;
+}
+
+static uint hash_u32(uint x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return x;
+}
+
+// One work item per pixel: NRAYS lens rays, samples (o + j) mod NSAMPLES of the jittered set with a
+// per-pixel offset o (LES09 4.5). out: mean colour of the rays that hit (xyz), rays that hit (w);
+// stats: rays that left the image, rays that found nothing (holes).
+kernel void render(global const float *height, global const float4 *colour, global const float2 *nbuf,
+                   global const float2 *range, global const float2 *samples, float coc_scale,
+                   float inv_focus, float wmax, float thick, uint seed, global float4 *out,
+                   global int2 *stats)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (x >= W || y >= H)
+        return;
+    float2 p = (float2)(x + 0.5f, y + 0.5f);
+    uint o = hash_u32((uint)(y * W + x) ^ hash_u32(seed)) % NSAMPLES;
+    float4 sum = (float4)0.0f;
+    int valid = 0, left_n = 0, miss_n = 0;
+    for (int j = 0; j < NRAYS; ++j) {
+        float2 b = samples[(o + j) % NSAMPLES] * coc_scale;
+        float2 a = p - b * inv_focus;
+        bool left;
+        hit_t hit = trace_ray(height, nbuf, range, a, b, wmax, thick, &left);
+        if (hit.layer >= 0) {
+            sum += colour[(size_t)hit.layer * W * H + hit.cell];
+            valid += 1;
+        } else if (left) {
+            left_n += 1;
+        } else {
+            miss_n += 1;
+        }
+    }
+    if (valid == 0) {   // no ray hit: the nearest layer's own pixel, if any
+        for (int k = 0; k < NL && valid == 0; ++k)
+            if (height[(size_t)k * W * H + y * W + x] >= 0.0f) {
+                sum = colour[(size_t)k * W * H + y * W + x];
+                valid = -1;
+            }
+    } else {
+        sum /= (float)valid;
+    }
+    sum.w = (float)valid;
+    out[y * W + x] = sum;
+    stats[y * W + x] = (int2)(left_n, miss_n);
+}
+
+// Tests and tools: trace explicit rays (a.x, a.y, b.x, b.y); out = (w, layer, cell, left).
+kernel void trace_rays(global const float *height, global const float2 *nbuf, global const float2 *range,
+                       global const float4 *rays, int n, float wmax, float thick, global float4 *out)
+{
+    int i = get_global_id(0);
+    if (i >= n)
+        return;
+    float4 r = rays[i];
+    bool left;
+    hit_t hit = trace_ray(height, nbuf, range, r.xy, r.zw, wmax, thick, &left);
+    out[i] = (float4)(hit.w, (float)hit.layer, (float)hit.cell, left ? 1.0f : 0.0f);
+}

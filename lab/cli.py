@@ -24,6 +24,7 @@ typical use:
   splatlab render moving.exr --db combined.spdb --out out.exr   motion.X, motion.Y channels in pixels
   splatlab render in.exr --method polygon --aperture hexagon --out out.exr   exact polygonal bokeh
   splatlab render in.exr --method polygon --layers 8 --out out.exr   ... with occlusion (depth layers)
+  splatlab render peeled.exr --method layered --rays 100 --out out.exr   lens rays through layers
   splatlab bench runtime                         method timings and kernel throughput -> reports/bench/
   splatlab doctor                                what is installed, what is missing and how to fix it
 
@@ -170,6 +171,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--layers", type=int, metavar="N",
                    help="polygon: occlusion with N global depth layers (LSR18), from the EXR's "
                         "layerN.* channels when it has them, else from its flat image")
+    p.add_argument("--rays", type=_int_or_text, metavar="N",
+                   help="layered: lens rays per pixel (default 32), traced through the EXR's layerN.* "
+                        "layers when it has them (--layers N: only the nearest N), else its flat image")
     p.add_argument("--directions", type=int, default=2, metavar="M",
                    help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
     p.add_argument("--edges", type=int, metavar="N",

@@ -33,7 +33,8 @@ class LayeredPass(RuntimePass):
     layered_input : bool, default False
         Trace the frame's ``layers`` (``layerN.*``) instead of its flat image.
     max_layers : int, optional
-        Trace only the nearest this many input layers (default: all).
+        Trace only the nearest this many input layers (default: all; the pass's ``layers``
+        argument, when > 1, sets it: ``splatlab render --method layered --layers 4``).
     thickness_px : float, default 1
         Depth of a surfel's slab in pixels of ray travel: neighbours of a continuous surface
         whose CoCs differ by less leave no gap; a silhouette blocks rays at most this far behind it.
@@ -63,6 +64,11 @@ class LayeredPass(RuntimePass):
         if not all(hasattr(self.camera, a) for a in ("coc_scale_px", "focus_distance_m")):
             raise InputError(f"camera: a {type(self.camera).__name__}; the layered pass traces a thin lens "
                              "(header lens \"thin\")")
+        if self.layers > 1 and max_layers is None:
+            max_layers = self.layers
+        if max_layers is not None and not layered_input:
+            raise InputError(f"layers = {max_layers}: the flat image is one layer; give a layered input "
+                             "(layerN.* channels, layered_input) to trace several")
         self.rays, self.layered_input, self.max_layers = int(rays), bool(layered_input), max_layers
         self.thickness_px, self.downsample, self.clamp_iters = float(thickness_px), downsample, clamp_iters
         self.seed = int(seed)

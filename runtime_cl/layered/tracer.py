@@ -111,17 +111,20 @@ class LayerTracer:
         Lens rays per pixel (>= 1); the jittered set has ``2 rays`` Halton points.
     downsample : int, default 4
         Block size of the min/max N-buffer (LES10: 1/4 resolution).
-    clamp_iters : int, default 3
-        Min/max clamping rounds per layer and ray (LES10: three).
+    clamp_iters : int, default 0
+        Min/max clamping rounds per layer and ray, after the pixel's (on the foreground scene
+        they cost more than they save once the pixel's footprint is clamped).
+    pixel_iters : int, default 3
+        Min/max clamping rounds per layer for all rays of a pixel at once (LES10: three).
     device : Device, optional
     """
 
-    def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 3,
-                 device=None):
+    def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
+                 pixel_iters: int = 3, device=None):
         import pyopencl as cl
 
         for name, value, least in (("rays", rays, 1), ("layers", n_layers, 1), ("downsample", downsample, 1),
-                                   ("clamp_iters", clamp_iters, 0)):
+                                   ("clamp_iters", clamp_iters, 0), ("pixel_iters", pixel_iters, 0)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
                 raise InputError(f"{name} = {value!r}: must be an integer >= {least}"
                                  + (" (lens rays per pixel, e.g. 100)" if name == "rays" else ""))
@@ -132,7 +135,8 @@ class LayerTracer:
         self.levels = levels_for(self.h4, self.w4)
         opts = [f"-DW={self.w}", f"-DH={self.h}", f"-DNL={self.n_layers}", f"-DNRAYS={self.rays}",
                 f"-DNSAMPLES={2 * self.rays}", f"-DDS={self.ds}", f"-DW4={self.w4}", f"-DH4={self.h4}",
-                f"-DLEVELS={self.levels}", f"-DCLAMP_ITERS={int(clamp_iters)}"]
+                f"-DLEVELS={self.levels}", f"-DCLAMP_ITERS={int(clamp_iters)}",
+                f"-DPIXEL_ITERS={int(pixel_iters)}"]
         prg, self.build = self.device.program(("layered/trace.cl",), opts)
         self._render = cl.Kernel(prg, "render")
         self._trace = cl.Kernel(prg, "trace_rays")

@@ -40,8 +40,10 @@ class LayeredPass(RuntimePass):
         whose CoCs differ by less leave no gap; a silhouette blocks rays at most this far behind it.
     downsample : int, default 4
         Block size of the min/max N-buffer (LES10's quarter resolution).
-    clamp_iters : int, default 3
-        Min/max clamping rounds per layer and ray (LES10: three; 0 walks the whole segment).
+    pixel_iters : int, default 3
+        Min/max clamping rounds per layer for all rays of a pixel at once (LES10: three).
+    clamp_iters : int, default 0
+        Further min/max clamping rounds per ray.
     seed : int, default 0
         Seeds the per-pixel offsets into the jittered lens sample set.
     """
@@ -52,7 +54,8 @@ class LayeredPass(RuntimePass):
     layered = True
 
     def configure(self, *, rays: int = 32, layered_input: bool = False, max_layers: int | None = None,
-                  thickness_px: float = 1.0, downsample: int = 4, clamp_iters: int = 3, seed: int = 0):
+                  thickness_px: float = 1.0, downsample: int = 4, clamp_iters: int = 0, pixel_iters: int = 3,
+                  seed: int = 0):
         if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or rays < 1:
             raise InputError(f"rays = {rays!r}: the number of lens rays per pixel must be an integer >= 1, "
                              "e.g. --rays 100")
@@ -70,7 +73,8 @@ class LayeredPass(RuntimePass):
             raise InputError(f"layers = {max_layers}: the flat image is one layer; give a layered input "
                              "(layerN.* channels, layered_input) to trace several")
         self.rays, self.layered_input, self.max_layers = int(rays), bool(layered_input), max_layers
-        self.thickness_px, self.downsample, self.clamp_iters = float(thickness_px), downsample, clamp_iters
+        self.thickness_px, self.downsample = float(thickness_px), downsample
+        self.clamp_iters, self.pixel_iters = clamp_iters, pixel_iters
         self.seed = int(seed)
         self._tracers: dict = {}
 
@@ -95,6 +99,7 @@ class LayeredPass(RuntimePass):
         if key not in self._tracers:
             self._tracers[key] = LayerTracer(stack.shape, len(stack.inv_depth), self.rays,
                                              downsample=self.downsample, clamp_iters=self.clamp_iters,
+                                             pixel_iters=self.pixel_iters,
                                              device=self.device)
         width = stack.shape[1]
         return self._tracers[key], stack, float(self.camera.coc_scale_px(width))

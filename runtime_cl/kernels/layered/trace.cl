@@ -15,13 +15,16 @@
 // surface whose CoCs differ by less than that leave no gap.
 //
 // Per layer the search runs on the part of the ray inside the image, in front of the best hit so
-// far, clamped by min/max inverse depths (LES10): CLAMP_ITERS times, the footprint of the segment
+// far, clamped by min/max inverse depths (LES10): first PIXEL_ITERS times for all rays of a pixel
+// at once (their footprint is the CoC), then CLAMP_ITERS times per ray: the footprint of the segment
 // (the bounding box of its end points) is looked up in an N-buffer over the layer down-sampled by
 // DS (four overlapping squares, Decoret 2005), and the segment cut to [min - THICK, max]. An
 // empty footprint culls the layer. The rest is walked cell by cell (exact 2D DDA, near to far).
 //
 // Constants (-D): W, H, NL (layers), NRAYS, NSAMPLES (lens samples, 2 NRAYS), DS, W4, H4 (the
-// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS.
+// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS, PIXEL_ITERS.
+
+#define MARGIN 0.01f   // pixels added around footprints: float rounding must not drop a cell
 
 typedef struct {
     float w;      // inverse depth of the hit, -1: none
@@ -48,8 +51,10 @@ static bool clamp_segment(global const float2 *nbuf, int k, float2 a, float2 b, 
 {
     for (int it = 0; it < CLAMP_ITERS; ++it) {
         float2 qa = a + b * *wa, qb = a + b * *wb;
-        int x0 = clamp((int)floor(fmin(qa.x, qb.x)), 0, W - 1), x1 = clamp((int)floor(fmax(qa.x, qb.x)), 0, W - 1);
-        int y0 = clamp((int)floor(fmin(qa.y, qb.y)), 0, H - 1), y1 = clamp((int)floor(fmax(qa.y, qb.y)), 0, H - 1);
+        int x0 = clamp((int)floor(fmin(qa.x, qb.x) - MARGIN), 0, W - 1);
+        int x1 = clamp((int)floor(fmax(qa.x, qb.x) + MARGIN), 0, W - 1);
+        int y0 = clamp((int)floor(fmin(qa.y, qb.y) - MARGIN), 0, H - 1);
+        int y1 = clamp((int)floor(fmax(qa.y, qb.y) + MARGIN), 0, H - 1);
         float2 m = nbuffer_query(nbuf, k, x0 / DS, y0 / DS, x1 / DS, y1 / DS);
         *wa = fmax(*wa, m.x - thick);
         *wb = fmin(*wb, m.y);
@@ -62,25 +67,24 @@ static bool clamp_segment(global const float2 *nbuf, int k, float2 a, float2 b, 
 }
 
 // Walk layer k's cells under q(w) for w from wb down to wa; the first surfel slab hit with
-// w > best->w becomes the best hit.
+// w > best->w becomes the best hit. Cell boundaries are crossed at w = (edge - a) / b, computed
+// from the edge itself rather than accumulated, so where a ray enters a cell does not depend on
+// where the walk started: a hit at a cell's entry ties exactly across layers (the lower wins).
 static void walk_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
                        float thick, hit_t *best)
 {
     float2 q0 = a + b * wb;
-    float len = wb - wa;
     int ix = clamp((int)floor(q0.x), 0, W - 1), iy = clamp((int)floor(q0.y), 0, H - 1);
-    float dx = -b.x, dy = -b.y;             // dq / d(wb - w): near to far
-    int sx = dx > 0.0f ? 1 : -1, sy = dy > 0.0f ? 1 : -1;
-    float tmx = dx > 0.0f ? (ix + 1 - q0.x) / dx : dx < 0.0f ? (ix - q0.x) / dx : INFINITY;
-    float tmy = dy > 0.0f ? (iy + 1 - q0.y) / dy : dy < 0.0f ? (iy - q0.y) / dy : INFINITY;
-    float tdx = dx != 0.0f ? 1.0f / fabs(dx) : INFINITY, tdy = dy != 0.0f ? 1.0f / fabs(dy) : INFINITY;
-    float tin = 0.0f;
+    int sx = b.x > 0.0f ? -1 : 1, sy = b.y > 0.0f ? -1 : 1;   // q moves against b as w falls
+    float w_enter = wb, ibx = 1.0f / b.x, iby = 1.0f / b.y;   // inf for b = 0: never crossed
     global const float *layer = height + (size_t)k * W * H;
     for (;;) {
-        float tout = fmin(fmin(tmx, tmy), len);
+        float wx = b.x != 0.0f ? ((float)(sx < 0 ? ix : ix + 1) - a.x) * ibx : -INFINITY;
+        float wy = b.y != 0.0f ? ((float)(sy < 0 ? iy : iy + 1) - a.y) * iby : -INFINITY;
+        float w_exit = fmax(fmax(wx, wy), wa);
         float h = layer[iy * W + ix];
         if (h >= 0.0f) {
-            float whi = fmin(h, wb - tin), wlo = fmax(h - thick, wb - tout);
+            float whi = fmin(h, w_enter), wlo = fmax(h - thick, w_exit);
             if (wlo <= whi && whi > best->w) {
                 best->w = whi;
                 best->layer = k;
@@ -88,17 +92,13 @@ static void walk_layer(global const float *height, int k, float2 a, float2 b, fl
                 return;
             }
         }
-        if (tout >= len)
+        if (w_exit <= wa)
             return;
-        if (tmx < tmy) {
+        if (wx >= wy)
             ix += sx;
-            tin = tmx;
-            tmx += tdx;
-        } else {
+        else
             iy += sy;
-            tin = tmy;
-            tmy += tdy;
-        }
+        w_enter = w_exit;
         if (ix < 0 || ix >= W || iy < 0 || iy >= H)
             return;
     }
@@ -122,8 +122,9 @@ static bool clip_to_image(float2 a, float2 b, float *lo, float *hi)
     return *lo <= *hi;
 }
 
-// The nearest surfel hit of the ray (a, b) over every layer; *left: part of [0, wmax] is off the image.
-static hit_t trace_ray(global const float *height, global const float2 *nbuf, global const float2 *range,
+// The nearest surfel hit of the ray (a, b) over every layer, each searched within [wa[k], wb[k]]
+// (wa > wb: skip the layer); *left: part of [0, wmax] is off the image.
+static hit_t trace_ray(global const float *height, global const float2 *nbuf, const float *wa0, const float *wb0,
                        float2 a, float2 b, float wmax, float thick, bool *left)
 {
     hit_t best = {-1.0f, -1, -1};
@@ -133,15 +134,36 @@ static hit_t trace_ray(global const float *height, global const float2 *nbuf, gl
     if (!inside)
         return best;
     for (int k = 0; k < NL; ++k) {
-        float2 r = range[k];
-        float wa = fmax(fmax(lo, r.x - thick), best.w), wb = fmin(hi, r.y);
-        if (r.y < 0.0f || wa > wb)
+        float wa = fmax(fmax(lo, wa0[k]), best.w), wb = fmin(hi, wb0[k]);
+        if (wa > wb)
             continue;   // an empty layer, or nothing of it in front of the best hit
         if (!clamp_segment(nbuf, k, a, b, thick, &wa, &wb))
             continue;
         walk_layer(height, k, a, b, wa, wb, thick, &best);
     }
     return best;
+}
+
+// Per layer, the inverse depths any lens ray of pixel p can hit (LES10: one footprint bounds all
+// of a pixel's rays: at w they lie within S |w - 1/F| of p, the CoC, largest at an end of the
+// segment); wa > wb where none can.
+static void pixel_ranges(global const float2 *nbuf, global const float2 *range, float2 p, float coc_scale,
+                         float inv_focus, float wmax, float thick, float *wa, float *wb)
+{
+    for (int k = 0; k < NL; ++k) {
+        float2 r = range[k];
+        float lo = fmax(0.0f, r.x - thick), hi = fmin(wmax, r.y);
+        for (int it = 0; it < PIXEL_ITERS && lo <= hi; ++it) {
+            float reach = coc_scale * fmax(fabs(lo - inv_focus), fabs(hi - inv_focus)) + MARGIN;
+            int x0 = clamp((int)floor(p.x - reach), 0, W - 1), x1 = clamp((int)floor(p.x + reach), 0, W - 1);
+            int y0 = clamp((int)floor(p.y - reach), 0, H - 1), y1 = clamp((int)floor(p.y + reach), 0, H - 1);
+            float2 m = nbuffer_query(nbuf, k, x0 / DS, y0 / DS, x1 / DS, y1 / DS);
+            lo = fmax(lo, m.x - thick);
+            hi = fmin(hi, m.y);
+        }
+        wa[k] = lo;
+        wb[k] = hi;
+    }
 }
 
 static uint hash_u32(uint x)
@@ -169,11 +191,14 @@ kernel void render(global const float *height, global const float4 *colour, glob
     uint o = hash_u32((uint)(y * W + x) ^ hash_u32(seed)) % NSAMPLES;
     float4 sum = (float4)0.0f;
     int valid = 0, left_n = 0, miss_n = 0;
+    float wa[NL], wb[NL];
+    pixel_ranges(nbuf, range, p, coc_scale, inv_focus, wmax, thick, wa, wb);
     for (int j = 0; j < NRAYS; ++j) {
-        float2 b = samples[(o + j) % NSAMPLES] * coc_scale;
+        int s = (int)o + j;
+        float2 b = samples[s < NSAMPLES ? s : s - NSAMPLES] * coc_scale;
         float2 a = p - b * inv_focus;
         bool left;
-        hit_t hit = trace_ray(height, nbuf, range, a, b, wmax, thick, &left);
+        hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, thick, &left);
         if (hit.layer >= 0) {
             sum += colour[(size_t)hit.layer * W * H + hit.cell];
             valid += 1;
@@ -205,7 +230,12 @@ kernel void trace_rays(global const float *height, global const float2 *nbuf, gl
     if (i >= n)
         return;
     float4 r = rays[i];
+    float wa[NL], wb[NL];
+    for (int k = 0; k < NL; ++k) {
+        wa[k] = range[k].x - thick;
+        wb[k] = range[k].y;
+    }
     bool left;
-    hit_t hit = trace_ray(height, nbuf, range, r.xy, r.zw, wmax, thick, &left);
+    hit_t hit = trace_ray(height, nbuf, wa, wb, r.xy, r.zw, wmax, thick, &left);
     out[i] = (float4)(hit.w, (float)hit.layer, (float)hit.cell, left ? 1.0f : 0.0f);
 }

@@ -116,15 +116,19 @@ class LayerTracer:
         they cost more than they save once the pixel's footprint is clamped).
     pixel_iters : int, default 3
         Min/max clamping rounds per layer for all rays of a pixel at once (LES10: three).
+    false_position : int, default 0
+        0: walk the clamped segment cell by cell (exact). n > 0: LES09's search, n steps of the
+        method of false position on the layer as a continuous height field (approximate).
     device : Device, optional
     """
 
     def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
-                 pixel_iters: int = 3, device=None):
+                 pixel_iters: int = 3, false_position: int = 0, device=None):
         import pyopencl as cl
 
         for name, value, least in (("rays", rays, 1), ("layers", n_layers, 1), ("downsample", downsample, 1),
-                                   ("clamp_iters", clamp_iters, 0), ("pixel_iters", pixel_iters, 0)):
+                                   ("clamp_iters", clamp_iters, 0), ("pixel_iters", pixel_iters, 0),
+                                   ("false_position", false_position, 0)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
                 raise InputError(f"{name} = {value!r}: must be an integer >= {least}"
                                  + (" (lens rays per pixel, e.g. 100)" if name == "rays" else ""))
@@ -137,6 +141,8 @@ class LayerTracer:
                 f"-DNSAMPLES={2 * self.rays}", f"-DDS={self.ds}", f"-DW4={self.w4}", f"-DH4={self.h4}",
                 f"-DLEVELS={self.levels}", f"-DCLAMP_ITERS={int(clamp_iters)}",
                 f"-DPIXEL_ITERS={int(pixel_iters)}"]
+        if false_position:
+            opts += ["-DFALSE_POSITION", f"-DFP_ITERS={int(false_position)}"]
         prg, self.build = self.device.program(("layered/trace.cl",), opts)
         self._render = cl.Kernel(prg, "render")
         self._trace = cl.Kernel(prg, "trace_rays")

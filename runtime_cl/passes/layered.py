@@ -44,6 +44,8 @@ class LayeredPass(RuntimePass):
         Min/max clamping rounds per layer for all rays of a pixel at once (LES10: three).
     clamp_iters : int, default 0
         Further min/max clamping rounds per ray.
+    false_position : int, default 0
+        0: the exact walk; n > 0: LES09's false-position search with n steps (approximate).
     seed : int, default 0
         Seeds the per-pixel offsets into the jittered lens sample set.
     """
@@ -55,7 +57,7 @@ class LayeredPass(RuntimePass):
 
     def configure(self, *, rays: int = 32, layered_input: bool = False, max_layers: int | None = None,
                   thickness_px: float = 1.0, downsample: int = 4, clamp_iters: int = 0, pixel_iters: int = 3,
-                  seed: int = 0):
+                  false_position: int = 0, seed: int = 0):
         if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or rays < 1:
             raise InputError(f"rays = {rays!r}: the number of lens rays per pixel must be an integer >= 1, "
                              "e.g. --rays 100")
@@ -74,7 +76,7 @@ class LayeredPass(RuntimePass):
                              "(layerN.* channels, layered_input) to trace several")
         self.rays, self.layered_input, self.max_layers = int(rays), bool(layered_input), max_layers
         self.thickness_px, self.downsample = float(thickness_px), downsample
-        self.clamp_iters, self.pixel_iters = clamp_iters, pixel_iters
+        self.clamp_iters, self.pixel_iters, self.false_position = clamp_iters, pixel_iters, false_position
         self.seed = int(seed)
         self._tracers: dict = {}
 
@@ -99,7 +101,7 @@ class LayeredPass(RuntimePass):
         if key not in self._tracers:
             self._tracers[key] = LayerTracer(stack.shape, len(stack.inv_depth), self.rays,
                                              downsample=self.downsample, clamp_iters=self.clamp_iters,
-                                             pixel_iters=self.pixel_iters,
+                                             pixel_iters=self.pixel_iters, false_position=self.false_position,
                                              device=self.device)
         width = stack.shape[1]
         return self._tracers[key], stack, float(self.camera.coc_scale_px(width))

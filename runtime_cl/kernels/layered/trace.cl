@@ -22,7 +22,8 @@
 // empty footprint culls the layer. The rest is walked cell by cell (exact 2D DDA, near to far).
 //
 // Constants (-D): W, H, NL (layers), NRAYS, NSAMPLES (lens samples, 2 NRAYS), DS, W4, H4 (the
-// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS, PIXEL_ITERS.
+// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS, PIXEL_ITERS; FALSE_POSITION and
+// FP_ITERS for LES09's search instead of the exact walk.
 
 #define MARGIN 0.01f   // pixels added around footprints: float rounding must not drop a cell
 
@@ -104,6 +105,75 @@ static void walk_layer(global const float *height, int k, float2 a, float2 b, fl
     }
 }
 
+#ifdef FALSE_POSITION
+#define BISECT 8
+// LES09's search instead of the walk: the layer as a continuous height field along the segment,
+// f(w) = w - h(q(w)) (> 0 in front of the surface; an empty pixel is no surface). Starting from
+// the segment's ends, FP_ITERS steps of the method of false position: intersect the ray with the
+// line through f at both ends, keep the half that still brackets the crossing. The hit is the
+// point found just behind the surface, in its cell, if within the slab; a crossing of a
+// discontinuity (a silhouette's wall) is then no hit. Approximate: a thin feature between the
+// samples can be missed, which the exact walk never does.
+static float fp_f(global const float *layer, float2 a, float2 b, float w, int *cell)
+{
+    float2 q = a + b * w;
+    int x = clamp((int)floor(q.x), 0, W - 1), y = clamp((int)floor(q.y), 0, H - 1);
+    float h = layer[y * W + x];
+    *cell = y * W + x;
+    return h >= 0.0f ? w - h : INFINITY;
+}
+
+static void search_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
+                         float thick, hit_t *best)
+{
+    global const float *layer = height + (size_t)k * W * H;
+    int cn, cf;
+    float n = wb, f = wa;
+    float fn = fp_f(layer, a, b, n, &cn), ff = fp_f(layer, a, b, f, &cf);
+    if (fn <= 0.0f) {            // behind a surface from the start: the near end is the hit
+        f = n;
+        ff = fn;
+        cf = cn;
+    } else if (ff > 0.0f) {
+        return;                  // in front at both ends: no crossing found
+    } else {
+        for (int it = 0; it < FP_ITERS; ++it) {
+            float wi = isinf(fn) ? 0.5f * (n + f) : n - fn * (n - f) / (fn - ff);
+            int ci;
+            float fi = fp_f(layer, a, b, wi, &ci);
+            if (fi <= 0.0f) {
+                f = wi;
+                ff = fi;
+                cf = ci;
+            } else {
+                n = wi;
+                fn = fi;
+            }
+        }
+        for (int it = 0; it < BISECT && ff < -thick; ++it) {   // LES09: a binary search finishes
+            float wi = 0.5f * (n + f);
+            int ci;
+            float fi = fp_f(layer, a, b, wi, &ci);
+            if (fi <= 0.0f) {
+                f = wi;
+                ff = fi;
+                cf = ci;
+            } else {
+                n = wi;
+            }
+        }
+    }
+    if (ff >= -thick && f > best->w) {
+        best->w = f;
+        best->layer = k;
+        best->cell = cf;
+    }
+}
+#define SEARCH_LAYER search_layer
+#else
+#define SEARCH_LAYER walk_layer
+#endif
+
 // The w-range of q(w) = a + b w inside [0, W) x [0, H), within [lo, hi]; false if none.
 static bool clip_to_image(float2 a, float2 b, float *lo, float *hi)
 {
@@ -139,7 +209,7 @@ static hit_t trace_ray(global const float *height, global const float2 *nbuf, co
             continue;   // an empty layer, or nothing of it in front of the best hit
         if (!clamp_segment(nbuf, k, a, b, thick, &wa, &wb))
             continue;
-        walk_layer(height, k, a, b, wa, wb, thick, &best);
+        SEARCH_LAYER(height, k, a, b, wa, wb, thick, &best);
     }
     return best;
 }

@@ -175,3 +175,24 @@ def test_clamping_changes_no_hit():
               for p, c in ((0, 0), (3, 0), (3, 3), (1, 2))]
     for image in images[1:]:
         np.testing.assert_array_equal(image, images[0])
+
+
+def test_false_position_finds_the_exact_hits_on_a_smooth_layer():
+    """LES09's false-position search (3 steps, then halvings) on a smooth height field: the same
+    rays hit, within a pixel of the exact walk's cell (it interpolates between the samples)."""
+    rng = np.random.default_rng(0)
+    h, w = 48, 64
+    yy, xx = np.mgrid[0:h, 0:w]
+    inv = (0.5 + 0.01 * xx + 0.2 * np.sin(xx / 9.0) * np.cos(yy / 7.0)).astype(np.float32)[None]
+    stack = LayerStack(inv, np.zeros(inv.shape + (4,), np.float32))
+    pixel = rng.uniform(8, 40, (4000, 2)) * [56 / 40, 1]
+    b = rng.normal(0, 0.5, (4000, 2)) * 20.0                  # S = 20 px per dioptre, focus 1 m
+    rays = np.concatenate([pixel - b, b], axis=1)
+    exact = LayerTracer((h, w), 1, 1).trace(stack, rays, 1 / 20.0)
+    fp = LayerTracer((h, w), 1, 1, false_position=3).trace(stack, rays, 1 / 20.0)
+    np.testing.assert_array_equal(fp[:, 1] >= 0, exact[:, 1] >= 0)
+    hit = exact[:, 1] >= 0
+    assert hit.mean() > 0.99
+    dx = np.abs(exact[hit, 2] % w - fp[hit, 2] % w)
+    dy = np.abs(exact[hit, 2] // w - fp[hit, 2] // w)
+    assert np.mean(np.maximum(dx, dy) <= 1) > 0.99

@@ -201,7 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "MHU21 exact polygonal bokeh (time vs radius, against brute force / Laplacian / "
                         "dx dy, uniform blur vs FFT; not part of all); rotation: the cost of per-pixel PSF "
                         "rotation, spreadlets with a constant and a per-pixel angle over without (512^2; "
-                        "not part of all); all: precompute and runtime")
+                        "not part of all); layered: lens rays through the peeled layers of --scene (default "
+                        "scenes/foreground.toml) for 8..256 rays and 1..L layers against Mitsuba (not part of all); "
+                        "all: precompute and runtime")
     p.add_argument("--quick", action="store_true",
                    help="polygon: small sizes only (a smoke run in seconds)")
     p.add_argument("--scene", type=Path, default=DEMO_SCENE, help="scene to benchmark (default: demo)")

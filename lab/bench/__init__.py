@@ -8,6 +8,8 @@ One module per benchmark:
 - :mod:`.polygon` - MHU21's exact polygonal bokeh (``bench polygon``);
 - :mod:`.spreadlet_throughput` - kernel rates on synthetic discs, and the cost of per-pixel
   rotation (``bench rotation``);
+- :mod:`.layered` - lens rays through peeled layers: quality and time per ray and layer count
+  (``bench layered``, default scene ``scenes/foreground.toml``);
 - :mod:`.tracing` - Dr.Jit PSF tracing rays/s of one model;
 - :mod:`.sparsify` - the sparsifier on analytic PSFs (``python -m lab.bench.sparsify``).
 """
@@ -42,9 +44,18 @@ def _polygon(args) -> list:
     return [bench_polygon(args["repeats"], quick=args["quick"])]
 
 
+def _layered(args) -> list:
+    from lab.paths import DEMO_SCENE, SCENES
+
+    from .layered import bench_layered
+
+    scene = SCENES / "foreground.toml" if Path(args["scene"]) == DEMO_SCENE else args["scene"]
+    return [bench_layered(scene, args["repeats"])]
+
+
 # ``splatlab bench WHAT``: the benchmarks each name runs, in order.
 BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
-           "rotation": (_rotation,), "all": (_precompute, _runtime)}
+           "rotation": (_rotation,), "layered": (_layered,), "all": (_precompute, _runtime)}
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,

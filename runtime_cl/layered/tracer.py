@@ -19,7 +19,10 @@ from runtime_cl.errors import InputError
 from runtime_cl.layered.lens_samples import disc_samples
 from runtime_cl.layered.nbuffer import levels_for, minmax_nbuffer
 
-__all__ = ["LayerStack", "LayerTracer", "layer_stack"]
+__all__ = ["LayerStack", "LayerTracer", "colour_mipmaps", "layer_stack"]
+
+MIPS = 8          # mip levels of cone tracing: windows up to 128 px
+CONE_STEPS = 4    # hits a cone may pass through partly (its uncovered fraction goes on)
 
 
 @dataclass(frozen=True)
@@ -98,6 +101,39 @@ def layer_stack(layers, opaque: bool = False) -> LayerStack:
     return LayerStack(np.ascontiguousarray(inv), np.ascontiguousarray(colour))
 
 
+def colour_mipmaps(stack: LayerStack, levels: int) -> tuple:
+    """Colour + coverage mipmaps of every layer (LES09 4.4), levels stacked: (data, offsets).
+
+    Level 0 holds (colour, 1) where a layer pixel holds something and 0 elsewhere; level l the
+    2 x 2 means of level l - 1 (beyond the image: nothing). Coverage at level l is the fraction of
+    the window's pixels that hold something, colour the sum over them divided by the window size.
+
+    Returns
+    -------
+    data : (n, 4) float32
+        Every level of every layer, row-major, layer by layer.
+    offsets : (L * levels,) int32
+        Where level l of layer k starts in ``data``: ``offsets[k * levels + l]``.
+    """
+    present = (stack.inv_depth >= 0).astype(np.float32)
+    level = np.concatenate([stack.colour[..., :3] * present[..., None], present[..., None]], axis=-1)
+    parts, offsets, at = [[] for _ in range(len(level))], [], 0
+    for lv in range(levels):
+        for k in range(len(level)):
+            parts[k].append(level[k].reshape(-1, 4))
+        if lv + 1 < levels:
+            n, h, w = level.shape[:3]
+            pad = np.zeros((n, h + h % 2, w + w % 2, 4), np.float32)
+            pad[:, :h, :w] = level
+            level = 0.25 * (pad[:, 0::2, 0::2] + pad[:, 1::2, 0::2] + pad[:, 0::2, 1::2] + pad[:, 1::2, 1::2])
+    for k in range(len(parts)):
+        for part in parts[k]:
+            offsets.append(at)
+            at += len(part)
+    data = np.concatenate([p for layer in parts for p in layer]).astype(np.float32)
+    return np.ascontiguousarray(data), np.asarray(offsets, np.int32)
+
+
 class LayerTracer:
     """The layered lens-ray tracer for one image size, layer count and ray count.
 
@@ -119,11 +155,14 @@ class LayerTracer:
     false_position : int, default 0
         0: walk the clamped segment cell by cell (exact). n > 0: LES09's search, n steps of the
         method of false position on the layer as a continuous height field (approximate).
+    cone : bool, default False
+        LES09's approximate cone tracing: colour + coverage from a mipmap over the window between
+        neighbouring rays, the uncovered part traced on (see the kernel file).
     device : Device, optional
     """
 
     def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
-                 pixel_iters: int = 3, false_position: int = 0, device=None):
+                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, device=None):
         import pyopencl as cl
 
         for name, value, least in (("rays", rays, 1), ("layers", n_layers, 1), ("downsample", downsample, 1),
@@ -143,6 +182,10 @@ class LayerTracer:
                 f"-DPIXEL_ITERS={int(pixel_iters)}"]
         if false_position:
             opts += ["-DFALSE_POSITION", f"-DFP_ITERS={int(false_position)}"]
+        self.cone = bool(cone)
+        self.mips = min(MIPS, 1 + int(math.log2(max(self.h, self.w))))
+        if self.cone:
+            opts += ["-DCONE", f"-DCONE_STEPS={CONE_STEPS}", f"-DMIPS={self.mips}"]
         prg, self.build = self.device.program(("layered/trace.cl",), opts)
         self._render = cl.Kernel(prg, "render")
         self._trace = cl.Kernel(prg, "trace_rays")
@@ -155,6 +198,9 @@ class LayerTracer:
                     "range": cl.Buffer(ctx, mf.READ_ONLY, 8 * self.n_layers),
                     "samples": cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.samples),
                     "out": cl.Buffer(ctx, mf.WRITE_ONLY, 16 * n),
+                    "mip": cl.Buffer(ctx, mf.READ_ONLY, 16 * self.n_layers * (2 * n + 4 * self.mips)
+                                     if self.cone else 16),
+                    "mip_offset": cl.Buffer(ctx, mf.READ_ONLY, 4 * self.n_layers * self.mips),
                     "stats": cl.Buffer(ctx, mf.WRITE_ONLY, 8 * n)}
 
     def _upload(self, stack: LayerStack) -> tuple:
@@ -205,10 +251,15 @@ class LayerTracer:
         events, wmax, _ = self._upload(stack)
         cl, q = self.cl, self.device.queue
         b = self.buf
+        if self.cone:
+            mip, offsets = colour_mipmaps(stack, self.mips)
+            events += [cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),
+                       cl.enqueue_copy(q, b["mip_offset"], offsets, is_blocking=False)]
         gsize = (-(-self.w // 8) * 8, -(-self.h // 8) * 8)
         kernel = self._render(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["samples"],
                               np.float32(coc_scale), np.float32(1.0 / focus_m), np.float32(wmax),
-                              np.float32(thickness_px / coc_scale), np.uint32(seed % 2**32), b["out"], b["stats"])
+                              np.float32(thickness_px / coc_scale), np.uint32(seed % 2**32), b["mip"],
+                              b["mip_offset"], np.float32(math.sqrt(math.pi / self.rays)), b["out"], b["stats"])
         out = np.empty((self.h, self.w, 4), np.float32)
         stats = np.empty((self.h, self.w, 2), np.int32)
         down = [cl.enqueue_copy(q, out, b["out"], wait_for=[kernel], is_blocking=False),

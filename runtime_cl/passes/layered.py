@@ -46,6 +46,8 @@ class LayeredPass(RuntimePass):
         Further min/max clamping rounds per ray.
     false_position : int, default 0
         0: the exact walk; n > 0: LES09's false-position search with n steps (approximate).
+    cone : bool, default False
+        LES09's approximate cone tracing with colour + coverage mipmaps (fewer rays, less grain).
     seed : int, default 0
         Seeds the per-pixel offsets into the jittered lens sample set.
     """
@@ -57,7 +59,7 @@ class LayeredPass(RuntimePass):
 
     def configure(self, *, rays: int = 32, layered_input: bool = False, max_layers: int | None = None,
                   thickness_px: float = 1.0, downsample: int = 4, clamp_iters: int = 0, pixel_iters: int = 3,
-                  false_position: int = 0, seed: int = 0):
+                  false_position: int = 0, cone: bool = False, seed: int = 0):
         if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or rays < 1:
             raise InputError(f"rays = {rays!r}: the number of lens rays per pixel must be an integer >= 1, "
                              "e.g. --rays 100")
@@ -77,6 +79,7 @@ class LayeredPass(RuntimePass):
         self.rays, self.layered_input, self.max_layers = int(rays), bool(layered_input), max_layers
         self.thickness_px, self.downsample = float(thickness_px), downsample
         self.clamp_iters, self.pixel_iters, self.false_position = clamp_iters, pixel_iters, false_position
+        self.cone = bool(cone)
         self.seed = int(seed)
         self._tracers: dict = {}
 
@@ -102,6 +105,7 @@ class LayeredPass(RuntimePass):
             self._tracers[key] = LayerTracer(stack.shape, len(stack.inv_depth), self.rays,
                                              downsample=self.downsample, clamp_iters=self.clamp_iters,
                                              pixel_iters=self.pixel_iters, false_position=self.false_position,
+                                             cone=self.cone,
                                              device=self.device)
         width = stack.shape[1]
         return self._tracers[key], stack, float(self.camera.coc_scale_px(width))

@@ -23,7 +23,8 @@
 //
 // Constants (-D): W, H, NL (layers), NRAYS, NSAMPLES (lens samples, 2 NRAYS), DS, W4, H4 (the
 // down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS, PIXEL_ITERS; FALSE_POSITION and
-// FP_ITERS for LES09's search instead of the exact walk.
+// FP_ITERS for LES09's search instead of the exact walk; CONE, CONE_STEPS and MIPS for approximate
+// cone tracing.
 
 #define MARGIN 0.01f   // pixels added around footprints: float rounding must not drop a cell
 
@@ -193,9 +194,9 @@ static bool clip_to_image(float2 a, float2 b, float *lo, float *hi)
 }
 
 // The nearest surfel hit of the ray (a, b) over every layer, each searched within [wa[k], wb[k]]
-// (wa > wb: skip the layer); *left: part of [0, wmax] is off the image.
+// (wa > wb: skip the layer) and below wcap; *left: part of [0, wmax] is off the image.
 static hit_t trace_ray(global const float *height, global const float2 *nbuf, const float *wa0, const float *wb0,
-                       float2 a, float2 b, float wmax, float thick, bool *left)
+                       float2 a, float2 b, float wmax, float wcap, float thick, bool *left)
 {
     hit_t best = {-1.0f, -1, -1};
     float lo = 0.0f, hi = wmax;
@@ -204,7 +205,7 @@ static hit_t trace_ray(global const float *height, global const float2 *nbuf, co
     if (!inside)
         return best;
     for (int k = 0; k < NL; ++k) {
-        float wa = fmax(fmax(lo, wa0[k]), best.w), wb = fmin(hi, wb0[k]);
+        float wa = fmax(fmax(lo, wa0[k]), best.w), wb = fmin(fmin(hi, wb0[k]), wcap);
         if (wa > wb)
             continue;   // an empty layer, or nothing of it in front of the best hit
         if (!clamp_segment(nbuf, k, a, b, thick, &wa, &wb))
@@ -249,10 +250,15 @@ static uint hash_u32(uint x)
 // One work item per pixel: NRAYS lens rays, samples (o + j) mod NSAMPLES of the jittered set with a
 // per-pixel offset o (LES09 4.5). out: mean colour of the rays that hit (xyz), rays that hit (w);
 // stats: rays that left the image, rays that found nothing (holes).
+//
+// With CONE (LES09 4.4), a ray is a cone of diameter lambda |C(w)| (lambda: the lens samples'
+// spacing): at a hit the layer's colour + coverage mipmap is read over that window (level
+// log2 of the diameter); the covered fraction v adds its mean colour, the rest (1 - v) goes on
+// behind the surfel's slab, up to CONE_STEPS hits. A ray's weight is the fraction it found.
 kernel void render(global const float *height, global const float4 *colour, global const float2 *nbuf,
                    global const float2 *range, global const float2 *samples, float coc_scale,
-                   float inv_focus, float wmax, float thick, uint seed, global float4 *out,
-                   global int2 *stats)
+                   float inv_focus, float wmax, float thick, uint seed, global const float4 *mip,
+                   global const int *mip_offset, float lambda, global float4 *out, global int2 *stats)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= W || y >= H)
@@ -260,7 +266,8 @@ kernel void render(global const float *height, global const float4 *colour, glob
     float2 p = (float2)(x + 0.5f, y + 0.5f);
     uint o = hash_u32((uint)(y * W + x) ^ hash_u32(seed)) % NSAMPLES;
     float4 sum = (float4)0.0f;
-    int valid = 0, left_n = 0, miss_n = 0;
+    float weight = 0.0f;
+    int left_n = 0, miss_n = 0;
     float wa[NL], wb[NL];
     pixel_ranges(nbuf, range, p, coc_scale, inv_focus, wmax, thick, wa, wb);
     for (int j = 0; j < NRAYS; ++j) {
@@ -268,26 +275,45 @@ kernel void render(global const float *height, global const float4 *colour, glob
         float2 b = samples[s < NSAMPLES ? s : s - NSAMPLES] * coc_scale;
         float2 a = p - b * inv_focus;
         bool left;
-        hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, thick, &left);
-        if (hit.layer >= 0) {
-            sum += colour[(size_t)hit.layer * W * H + hit.cell];
-            valid += 1;
-        } else if (left) {
-            left_n += 1;
-        } else {
-            miss_n += 1;
+        hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, INFINITY, thick, &left);
+        if (hit.layer < 0) {
+            left_n += left ? 1 : 0;
+            miss_n += left ? 0 : 1;
+            continue;
         }
+#ifdef CONE
+        float through = 1.0f;
+        for (int step = 0; step < CONE_STEPS; ++step) {
+            float diameter = lambda * coc_scale * fabs(inv_focus - hit.w);
+            int lv = diameter > 1.0f ? min((int)(log2(diameter) + 0.5f), MIPS - 1) : 0;
+            int cx = hit.cell % W, cy = hit.cell / W, wl = (W + (1 << lv) - 1) >> lv;
+            float4 m = mip[mip_offset[hit.layer * MIPS + lv] + (cy >> lv) * wl + (cx >> lv)];
+            sum += through * (float4)(m.x, m.y, m.z, 0.0f);
+            through *= 1.0f - m.w;
+            if (through < 0.01f)
+                break;
+            float cap = height[(size_t)hit.layer * W * H + hit.cell] - thick * 1.0001f - 1e-7f;
+            hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, cap, thick, &left);
+            if (hit.layer < 0)
+                break;
+        }
+        weight += 1.0f - through;
+#else
+        sum += colour[(size_t)hit.layer * W * H + hit.cell];
+        weight += 1.0f;
+#endif
     }
-    if (valid == 0) {   // no ray hit: the nearest layer's own pixel, if any
-        for (int k = 0; k < NL && valid == 0; ++k)
+    float hits = (float)(NRAYS - left_n - miss_n);
+    if (weight > 0.0f) {
+        sum /= weight;
+    } else {   // no ray hit: the nearest layer's own pixel, if any
+        for (int k = 0; k < NL && hits == 0.0f; ++k)
             if (height[(size_t)k * W * H + y * W + x] >= 0.0f) {
                 sum = colour[(size_t)k * W * H + y * W + x];
-                valid = -1;
+                hits = -1.0f;
             }
-    } else {
-        sum /= (float)valid;
     }
-    sum.w = (float)valid;
+    sum.w = hits;
     out[y * W + x] = sum;
     stats[y * W + x] = (int2)(left_n, miss_n);
 }
@@ -306,6 +332,6 @@ kernel void trace_rays(global const float *height, global const float2 *nbuf, gl
         wb[k] = range[k].y;
     }
     bool left;
-    hit_t hit = trace_ray(height, nbuf, wa, wb, r.xy, r.zw, wmax, thick, &left);
+    hit_t hit = trace_ray(height, nbuf, wa, wb, r.xy, r.zw, wmax, INFINITY, thick, &left);
     out[i] = (float4)(hit.w, (float)hit.layer, (float)hit.cell, left ? 1.0f : 0.0f);
 }

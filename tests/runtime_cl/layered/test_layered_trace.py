@@ -92,21 +92,24 @@ def test_lens_samples_cover_the_unit_disc_evenly():
     assert abs(np.mean(r < np.sqrt(0.5)) - 0.5) < 0.01        # half the area inside radius 1/sqrt(2)
 
 
-def test_in_focus_layer_renders_unchanged():
+@pytest.mark.parametrize("cone", [False, True])
+def test_in_focus_layer_renders_unchanged(cone):
     rng = np.random.default_rng(0)
     rgb = rng.random((30, 40, 3)).astype(np.float32)
     depth = np.full((30, 40), CAMERA.focus_distance_m)
-    image, timing = runtime_cl.render(rgb, depth, CAMERA, method="layered", rays=16)
+    image, timing = runtime_cl.render(rgb, depth, CAMERA, method="layered", rays=16, cone=cone)
     np.testing.assert_allclose(image, rgb, rtol=1e-6)
     assert timing.counts["rays_hit"] == 30 * 40 * 16
 
 
-def test_defocused_point_spreads_into_the_coc_disc():
+@pytest.mark.parametrize("cone", [False, True])
+def test_defocused_point_spreads_into_the_coc_disc(cone):
+    """256 rays, or 64 cones (LES09 4.4: each cone reads the mipmap over the window between rays)."""
     h, w = 90, 160
     depth = np.full((h, w), 5.0)
     rgb = np.zeros((h, w, 3), np.float32)
     rgb[45, 80] = 100.0
-    image, _ = runtime_cl.render(rgb, depth, CAMERA, method="layered", rays=256)
+    image, _ = runtime_cl.render(rgb, depth, CAMERA, method="layered", rays=64 if cone else 256, cone=cone)
     radius = abs(CAMERA.coc_radius_px(5.0, w))
     assert 4.5 < radius < 5.0
     ys, xs = np.nonzero(image[..., 0] > 0)

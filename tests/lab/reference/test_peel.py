@@ -92,3 +92,34 @@ def test_later_layers_lie_past_the_umbra_of_the_earlier(peeled):
     assert (rgb1[inner][:, 1] > rgb1[inner][:, 2]).all()
     assert np.all(a1[z0 > 1.0] == 0)                                   # nothing peeled behind the wall
     assert stats["occupancy"][0] == 1.0 and stats["occupancy"][1] == pytest.approx(np.mean(a1 > 0))
+
+
+def test_coc_layers_are_spaced_uniformly_in_coc():
+    """LES09 eq. 4: each layer spans delta pixels of CoC (plus 10 % overlap); the last reaches infinity."""
+    from lab.reference.coc_layers import coc_bounds
+
+    bounds = coc_bounds(0.5, 20.0, 2.0, 6)
+    far, near = bounds[:, 0], bounds[:, 1]
+    np.testing.assert_allclose(near[0], 2.0)
+    np.testing.assert_allclose(20.0 * (near[:-1] - far[:-1]), 2.2)         # delta + 10 % overlap
+    np.testing.assert_allclose(20.0 * (near[:-1] - near[1:]), 2.0)          # CoC step delta
+    assert far[-1] == 0.0
+
+
+def test_coc_layers_hold_the_first_surface_of_their_interval(peeled):
+    from lab.reference.coc_layers import coc_bounds, coc_layers
+
+    scene, _, _ = peeled
+    scale = scene.camera.thin_lens().coc_scale_px(W)
+    channels = coc_layers(scene, 4, 1.0, 0.45, spp=4)      # S = 2.85: 0.35 /m per layer from 2.22 /m
+    bounds = coc_bounds(0.45, scale, 1.0, 4)
+    z = [channels[f"layer{k}.Z"] for k in range(4)]
+    for k, (far, near) in enumerate(bounds):                 # every depth within its layer's interval
+        finite = np.isfinite(z[k])
+        assert np.all(1 / z[k][finite] <= near + 1e-6) and np.all(1 / z[k][finite] >= far - 1e-6)
+    card = np.isclose(z[0], 0.5, rtol=1e-4)
+    assert card.sum() > 50                                   # layer 0 (2.22 .. 1.84 /m): the red card
+    blue = np.isclose(z[1], 0.55, rtol=1e-4)                 # layer 1 (1.87 .. 1.49 /m): the blue card behind it
+    assert blue.sum() > 40 and np.all(card[blue]) and np.all(np.isinf(z[1][~blue]))
+    assert np.isinf(z[2]).all()                              # layer 2 (1.52 .. 1.14 /m): nothing
+    assert np.all(np.isclose(z[3], 2.0, rtol=1e-4))          # the wall, in the last layer everywhere

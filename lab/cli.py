@@ -170,7 +170,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "clover, star; default: the camera header's iris, else hexagon)")
     p.add_argument("--layers", type=int, metavar="N",
                    help="polygon: occlusion with N global depth layers (LSR18), from the EXR's "
-                        "layerN.* channels when it has them, else from its flat image")
+                        "layerN.* channels when it has them, else from its flat image; layered: trace "
+                        "only the nearest N of the EXR's layers")
     p.add_argument("--rays", type=_int_or_text, metavar="N",
                    help="layered: lens rays per pixel (default 32), traced through the EXR's layerN.* "
                         "layers when it has them (--layers N: only the nearest N), else its flat image")

@@ -155,12 +155,15 @@ def cmd_render(args) -> int:
     if db is not None:
         check_header(db, image.camera, f"{args.input} camera")
     options, said = {}, ""
-    if args.layers is not None:
+    takes = inspect.signature(cls.configure).parameters
+    if args.layers is not None and "max_layers" in takes:   # a pass that traces the input's own layers
+        options["max_layers"] = args.layers
+    elif args.layers is not None:
         options["layers"] = args.layers
         options["layered_input"] = cls.layered and bool(image.layers(str(args.input)))
     if args.rays is not None:
         options["rays"] = args.rays
-    if "rays" in inspect.signature(cls.configure).parameters:   # lens rays: through the layers it has
+    if "rays" in takes:   # lens rays: through the layers the input has
         options.setdefault("layered_input", bool(image.layers(str(args.input))))
     if cls.draws_aperture:
         aperture = _render_aperture(args, image)

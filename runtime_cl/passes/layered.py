@@ -33,8 +33,8 @@ class LayeredPass(RuntimePass):
     layered_input : bool, default False
         Trace the frame's ``layers`` (``layerN.*``) instead of its flat image.
     max_layers : int, optional
-        Trace only the nearest this many input layers (default: all; the pass's ``layers``
-        argument, when > 1, sets it: ``splatlab render --method layered --layers 4``).
+        Trace only the nearest this many input layers (default: all; ``splatlab render --method
+        layered --layers N`` sets it; the pass's ``layers`` argument, when > 1, too).
     thickness_px : float, default 1
         Depth of a surfel's slab in pixels of ray travel: neighbours of a continuous surface
         whose CoCs differ by less leave no gap; a silhouette blocks rays at most this far behind it.

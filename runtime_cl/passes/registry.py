@@ -48,6 +48,9 @@ class RuntimePass(abc.ABC):
     timing_reference : bool
         Whether reports compare the other passes' times against it, measured in the same run
         (LSR18's dense Splat: the machine's load cancels in the ratio).
+    far_field : bool
+        Whether it takes the option ``far_field`` (a ``volume_far`` database whose halos it adds
+        to a ``volume`` database's render: :mod:`runtime_cl.psf.far_field`).
 
     Parameters
     ----------
@@ -69,6 +72,7 @@ class RuntimePass(abc.ABC):
     layered: ClassVar[bool]
     draws_aperture: ClassVar[bool] = False
     timing_reference: ClassVar[bool] = False
+    far_field: ClassVar[bool] = False
 
     def __init__(self, camera, db=None, *, layers: int = 1, device=None, **options):
         if isinstance(layers, bool) or not isinstance(layers, int) or layers < 1:

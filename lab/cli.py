@@ -205,7 +205,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "dx dy, uniform blur vs FFT; not part of all); rotation: the cost of per-pixel PSF "
                         "rotation, spreadlets with a constant and a per-pixel angle over without (512^2; "
                         "not part of all); layered: lens rays through the peeled layers of --scene (default "
-                        "scenes/foreground.toml) for 8..256 rays and 1..L layers against Mitsuba (not part of all); "
+                        "scenes/foreground.toml) for 8..256 rays and 1..L layers against Mitsuba; layer_cost: layers 5-8 "
+                        "against 1-4 of the layered pass on an 8-layer numpy scene (neither part of all); "
                         "all: precompute and runtime")
     p.add_argument("--quick", action="store_true",
                    help="polygon: small sizes only (a smoke run in seconds)")

@@ -1,6 +1,7 @@
 """Implementations of the ``splatlab`` subcommands (argument parsing lives in :mod:`lab.cli`)."""
 from __future__ import annotations
 
+import inspect
 import json
 import shutil
 import sys
@@ -132,6 +133,8 @@ def _check_render_options(args, cls) -> None:
                         f"MODEL --out FILE); only --method {free} work without one")
     if cls.database_models == () and args.db is not None:
         raise UserError(f"--db {args.db}: --method {args.method} uses no PSF database; drop --db")
+    if args.rays is not None and "rays" not in inspect.signature(cls.configure).parameters:
+        raise UserError(f"--rays {args.rays}: --method {args.method} traces no lens rays; drop --rays")
     if args.far_db is not None and not cls.far_field:
         raise UserError(f"--far-db {args.far_db}: --method {args.method} does not add far fields; use it with "
                         "--method spreadlets, splat or filter and a volume --db")
@@ -155,9 +158,16 @@ def cmd_render(args) -> int:
     if db is not None:
         check_header(db, image.camera, f"{args.input} camera")
     options, said = {}, ""
-    if args.layers is not None:
+    takes = inspect.signature(cls.configure).parameters
+    if args.layers is not None and "max_layers" in takes:   # a pass that traces the input's own layers
+        options["max_layers"] = args.layers
+    elif args.layers is not None:
         options["layers"] = args.layers
         options["layered_input"] = cls.layered and bool(image.layers(str(args.input)))
+    if args.rays is not None:
+        options["rays"] = args.rays
+    if "rays" in takes:   # lens rays: through the layers the input has
+        options.setdefault("layered_input", bool(image.layers(str(args.input))))
     if cls.draws_aperture:
         aperture = _render_aperture(args, image)
         options["aperture"] = aperture.splatter
@@ -174,6 +184,9 @@ def cmd_render(args) -> int:
     c = timing.counts
     if "max_radius_px" in c:
         said += f", radius <= {c['max_radius_px']:.1f} px"
+    if "rays_hit" in c:
+        said += (f", {c['rays']} rays per pixel through {c['input_layers']} layer(s) (occupancy "
+                 f"{', '.join(f'{x:.2f}' for x in c['occupancy'])}), {c['rays_left_image']} rays left the image")
     if "used_layers" in c:
         said += (f", {c['used_layers']} of {c['depth_layers']} depth layers used "
                  f"({'layered' if options['layered_input'] else 'flat'} input)")

@@ -40,17 +40,30 @@ class SceneInfo:
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """``[render]``: samples per pixel of the reference and of the input, seed, path length."""
+    """``[render]``: samples per pixel of the reference and of the input, seed, path length.
+
+    ``peel_layers`` (optional): peel up to this many layers from the lens centre with LES10's
+    umbra offset into the input (:mod:`lab.reference.peel`) and trace lens rays through them
+    (the ``layered`` pass, ``lens_rays`` per pixel, default 100).
+    """
 
     reference_spp: int = 256
     input_spp: int = 64
     seed: int = 0
     max_depth: int = 8
+    peel_layers: int | None = None
+    lens_rays: int | None = None
 
     def __post_init__(self):
         for key in ("reference_spp", "input_spp", "max_depth"):
             if getattr(self, key) < 1:
                 raise UserError(f"{key} = {getattr(self, key)} must be >= 1")
+        for key in ("peel_layers", "lens_rays"):
+            if getattr(self, key) is not None and getattr(self, key) < 1:
+                raise UserError(f"{key} = {getattr(self, key)} must be >= 1 (or remove it)")
+        if self.lens_rays is not None and self.peel_layers is None:
+            raise UserError(f"lens_rays = {self.lens_rays}: lens rays trace peeled layers; add peel_layers "
+                            "(e.g. 8) or remove lens_rays")
         if not 0 <= self.seed < 2**31:
             raise UserError(f"seed = {self.seed} must be in [0, 2^31)")
 
@@ -152,6 +165,9 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
     if not shapes and not emitters:
         raise UserError(f"{source}: the scene is empty; add [[shapes]] or [[emitters]]")
     layers = sorted({s.layer for s in shapes if s.layer is not None})
+    if layers and render.peel_layers is not None:
+        raise UserError(f"{source}: [[shapes]] layer keys and [render] peel_layers both make the input's "
+                        "layerN.* layers; keep one")
     if layers != list(range(len(layers))):
         raise UserError(f"{source}: [[shapes]] use layer = {layers}; number the input layers 0, 1, ... "
                         "from the nearest without gaps (untagged shapes form the last layer)")

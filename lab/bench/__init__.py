@@ -8,6 +8,10 @@ One module per benchmark:
 - :mod:`.polygon` - MHU21's exact polygonal bokeh (``bench polygon``);
 - :mod:`.spreadlet_throughput` - kernel rates on synthetic discs, and the cost of per-pixel
   rotation (``bench rotation``);
+- :mod:`.layered` - lens rays through peeled layers: quality and time per ray and layer count
+  (``bench layered``, default scene ``scenes/foreground.toml``);
+- :mod:`.layer_cost` - layers 5-8 against 1-4 of the layered pass on a numpy fence scene
+  (``bench layer_cost``);
 - :mod:`.tracing` - Dr.Jit PSF tracing rays/s of one model;
 - :mod:`.sparsify` - the sparsifier on analytic PSFs (``python -m lab.bench.sparsify``).
 """
@@ -42,9 +46,25 @@ def _polygon(args) -> list:
     return [bench_polygon(args["repeats"], quick=args["quick"])]
 
 
+def _layered(args) -> list:
+    from lab.paths import DEMO_SCENE, SCENES
+
+    from .layered import bench_layered
+
+    scene = SCENES / "foreground.toml" if Path(args["scene"]) == DEMO_SCENE else args["scene"]
+    return [bench_layered(scene, args["repeats"])]
+
+
+def _layer_cost(args) -> list:
+    from .layer_cost import bench_layer_cost
+
+    return [bench_layer_cost(args["repeats"])]
+
+
 # ``splatlab bench WHAT``: the benchmarks each name runs, in order.
 BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
-           "rotation": (_rotation,), "all": (_precompute, _runtime)}
+           "rotation": (_rotation,), "layered": (_layered,),
+           "layer_cost": (_layer_cost,), "all": (_precompute, _runtime)}
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,

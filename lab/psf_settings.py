@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+from runtime_cl.json_values import is_number
+
 from .errors import UserError
 
 __all__ = ["SCENE_SETTINGS", "model_table"]
@@ -41,7 +43,8 @@ def _coc_range(table: dict, scene, image) -> dict:
     if "max_coc_px" not in table:
         needed = coc_range(image, scene.camera.thin_lens()).max_abs_px
         table["max_coc_px"] = float(max(8, 8 * math.ceil(needed / 8.0)))
-    table.setdefault("psf_resolution", min_psf_resolution(table["max_coc_px"]))
+    if is_number(table["max_coc_px"]) and table["max_coc_px"] > 0:   # else the model's check names it
+        table.setdefault("psf_resolution", min_psf_resolution(table["max_coc_px"]))
     return table
 
 
@@ -73,12 +76,13 @@ def _combined(table: dict, scene, image) -> dict:
             table["max_coc_px"] = 1.0
         else:
             _coc_range(table, scene, image)
-            del table["psf_resolution"]
+            table.pop("psf_resolution", None)
     if "max_motion_px" not in table:
         longest = float(np.hypot(*np.moveaxis(read_motion(image, scene.source, "combined"), -1, 0)).max())
         table["max_motion_px"] = float(max(8, 8 * math.ceil(longest / 8.0)))
-    table.setdefault("psf_resolution", min_combined_resolution(
-        table["max_coc_px"], table["max_motion_px"], table.get("motion_direction_deg", 0.0)))
+    coc, motion, angle = table["max_coc_px"], table["max_motion_px"], table.get("motion_direction_deg", 0.0)
+    if is_number(coc) and coc > 0 and is_number(motion) and motion >= 0 and is_number(angle):  # else the model names it
+        table.setdefault("psf_resolution", min_combined_resolution(coc, motion, angle))
     return table
 
 

@@ -14,6 +14,7 @@ Temporary names carry the host and process id (``.NAME.HOST.PID.XXXX.tmp``), so
 """
 from __future__ import annotations
 
+import errno
 import os
 import re
 import socket
@@ -190,6 +191,8 @@ def _probe(path: Path, folder: Path, what: str) -> None:
         fd, probe = tempfile.mkstemp(dir=folder, prefix=f".splatlab-probe.{_HOST}.{os.getpid()}.", suffix=".tmp")
         os.close(fd)
         os.unlink(probe)
+        if os.statvfs(folder).f_bavail == 0:       # an empty file fits on a full disk; nothing else does
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     except OSError as exc:
         raise os_error(exc, path, what, writing=True) from None
 

@@ -1,7 +1,6 @@
 """Regression check: compare a new report.json against a baseline report.json."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from runtime_cl.input_file import read_text

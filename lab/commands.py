@@ -218,6 +218,8 @@ def cmd_report(args) -> int:
     names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
     if len(set(names)) < len(names):
         raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
+    if len(scenes) > 1:
+        check_output_dir(args.out_dir or REPORTS / "table2")   # before hours of work
     with _executor(args) as executor:
         if len(scenes) == 1:
             return _report(scenes[0], args.out_dir, args.baseline, executor, args.noise_floor)[0]

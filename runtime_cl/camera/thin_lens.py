@@ -106,6 +106,9 @@ class ThinLens:
         missing = [k for k in ("focal_length_mm", "f_number", "focus_distance_m") if k not in data]
         if missing:
             raise InputError(f"{source}: missing key(s) {missing} for a thin lens")
-        return cls(focal_length_mm=data["focal_length_mm"], f_number=data["f_number"],
-                   focus_distance_m=data["focus_distance_m"],
-                   sensor_width_mm=data.get("sensor_width_mm", 36.0))
+        try:
+            return cls(focal_length_mm=data["focal_length_mm"], f_number=data["f_number"],
+                       focus_distance_m=data["focus_distance_m"],
+                       sensor_width_mm=data.get("sensor_width_mm", 36.0))
+        except InputError as exc:
+            raise InputError(f"{source}: {exc}") from None

@@ -24,7 +24,7 @@ def is_number(value, finite: bool = True) -> bool:
     """True for an int or float that is not a bool (and finite, unless ``finite=False``)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return False
-    return not finite or math.isfinite(value)
+    return not finite or isinstance(value, int) or math.isfinite(value)
 
 
 def _depth(text: str) -> int:

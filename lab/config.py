@@ -13,6 +13,8 @@ import typing
 
 from .errors import UserError
 
+MAX_SIDE_PX = 16384    # pixels a side of a scene or labelled image: an RGB float image of 16384^2 is 3.2 GB
+
 
 def _check_type(value, annotation, where, key):
     origin = typing.get_origin(annotation)

@@ -25,16 +25,18 @@ import numpy as np
 import OpenEXR
 
 from runtime_cl.atomic_file import atomic_path
-from runtime_cl.input_file import check_input
+from runtime_cl.input_file import open_input
 from runtime_cl.json_values import is_number, loads
 
 from .cameras import header_camera
+from .config import MAX_SIDE_PX
 from .errors import UserError
 
 CAMERA_ATTR = "splatlab.camera"
 FORMAT_ATTR = "splatlab.format"
 FORMAT = "labelled-pixels/1"
 CORE = ("R", "G", "B", "A", "Z")
+MAX_CHANNELS = 1024     # 5 per layer: 200 layers, far beyond LES09's handful
 _LAYER = re.compile(r"layer(\d+)\.(.+)")
 
 
@@ -223,25 +225,44 @@ def write_rgb(path, rgb: np.ndarray, header: dict | None = None):
     _atomic_write(path, dict(header or {}), {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
 
 
-def _open(path) -> tuple[dict, dict]:
-    path = check_input(path, "EXR", "pass an OpenEXR file (.exr)")
-    printed: list = []
-    try:
-        with _c_output(printed), OpenEXR.File(str(path), separate_channels=True) as exr:
-            header = dict(exr.header())
-            channels = {name: ch.pixels for name, ch in exr.channels().items()}
-            sampling = {name: (ch.xSampling, ch.ySampling) for name, ch in exr.channels().items()}
-    except Exception as exc:  # noqa: BLE001 - OpenEXR raises RuntimeError or ValueError for anything unreadable
-        raise UserError(f"{path}: not a readable OpenEXR file ({_reason(exc, printed)}); "
-                        "re-export it as a scanline or tiled float EXR") from None
-    sub = sorted(name for name, s in sampling.items() if s != (1, 1))
+def _layout(path, header: dict) -> None:
+    """Refuse, before any pixel is read, what a labelled image cannot be: a size beyond
+    :data:`~lab.config.MAX_SIDE_PX`, too many channels, sub-sampled channels."""
+    lo, hi = (np.asarray(v, dtype=np.int64) for v in header["dataWindow"])
+    w, h = (hi - lo + 1).tolist()
+    if not (1 <= w <= MAX_SIDE_PX and 1 <= h <= MAX_SIDE_PX):
+        raise UserError(f"{path}: data window {w} x {h} pixels; a labelled image has 1 to {MAX_SIDE_PX} pixels "
+                        "a side (the largest scene resolution)")
+    chans = header.get("channels", [])
+    if len(chans) > MAX_CHANNELS:
+        raise UserError(f"{path}: {len(chans)} channels, more than {MAX_CHANNELS} (5 per layer and a few "
+                        "more); write fewer layers")
+    sub = sorted(c.name for c in chans if (c.xSampling, c.ySampling) != (1, 1))
     if sub:
         raise UserError(f"{path}: channel(s) {sub} are sub-sampled (x/y sampling "
-                        f"{sorted({sampling[n] for n in sub})}); write every channel at full resolution "
-                        "(x/y sampling 1)")
+                        f"{sorted({(c.xSampling, c.ySampling) for c in chans if c.name in sub})}); write every "
+                        "channel at full resolution (x/y sampling 1)")
+
+
+def _open(path) -> tuple[dict, dict]:
+    printed: list = []
+    with open_input(path, "EXR", "pass an OpenEXR file (.exr)") as fh:
+        try:
+            with _c_output(printed), OpenEXR.File(fh, header_only=True) as exr:
+                header = dict(exr.header())
+            _layout(path, header)
+            fh.seek(0)
+            with _c_output(printed), OpenEXR.File(fh, separate_channels=True) as exr:
+                channels = {name: ch.pixels for name, ch in exr.channels().items()}
+        except UserError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - OpenEXR raises RuntimeError, ValueError, KeyError ... for a bad file
+            raise UserError(f"{path}: not a readable OpenEXR file ({_reason(exc, printed)}); "
+                            "re-export it as a scanline or tiled float EXR") from None
     for name, pixels in channels.items():
-        if pixels.dtype not in (np.float16, np.float32):
-            raise UserError(f"{path}: channel {name} is {pixels.dtype}; use half or float channels")
+        if not isinstance(pixels, np.ndarray) or pixels.dtype not in (np.float16, np.float32):
+            raise UserError(f"{path}: channel {name} is {getattr(pixels, 'dtype', type(pixels).__name__)}; "
+                            "use half or float channels")
     return header, {name: np.asarray(p, dtype=np.float32) for name, p in channels.items()}
 
 

@@ -18,14 +18,13 @@ from dataclasses import dataclass, field
 from runtime_cl.input_file import read_text
 
 from .cameras import Camera, parse_camera
-from .config import check_finite, from_table, to_table
+from .config import MAX_SIDE_PX, check_finite, from_table, to_table
 from .errors import UserError
 from .medium import Medium
 from .scene_objects import Emitter, Material, Shape, parse_material, parse_shape, strip_none
 
 SECTIONS = ("scene", "camera", "render", "materials", "shapes", "emitters", "medium", "psf", "precompute")
 MAX_SCENE_CHARS = 1 << 20   # scenes are a few kB; a megabyte is not a scene file
-MAX_SIDE_PX = 16384
 RENDER_BOUNDS = {
     "reference_spp": (1 << 20, "a million samples per pixel is past any converged reference"),
     "input_spp": (1 << 16, "the labelled input needs only its edges anti-aliased"),

@@ -1,0 +1,148 @@
+"""Fuzzing the scene reader: mutations of the shipped scenes give a valid plan or a UserError.
+
+Structured mutations (a value replaced, a key dropped or added, a list entry doubled) go through
+:func:`lab.scene.parse_scene` and the plan; text mutations (bytes flipped, inserted, cut) through
+:func:`lab.scene.load_scene`, the file reader. Seeded (derandomize) and bounded (examples,
+deadline); ``-m slow`` runs 10 000 cases of each.
+"""
+import copy
+import math
+import os
+import tempfile
+import tomllib
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from lab.errors import UserError
+from lab.paths import SCENES
+from lab.plan import make_plan
+from lab.scene import load_scene, parse_scene
+
+SHIPPED = {p.name: p.read_bytes() for p in sorted(SCENES.glob("*.toml"))}
+PARSED = {name: tomllib.loads(data.decode()) for name, data in SHIPPED.items()}
+
+FAST = settings(max_examples=150, derandomize=True, deadline=5000, database=None,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+SLOW = settings(FAST, max_examples=10_000)
+
+VALUES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(-2 ** 70, 2 ** 70), st.booleans(),
+    st.text(max_size=6), st.sampled_from(["../x", "", "a\0b", "a/b", "circle", "thin", "thick", "pinhole",
+                                          "sphere", "simple_lens", "N-BK7", "hexagon"]),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=5), st.lists(st.integers(-9, 9), max_size=5),
+    st.dictionaries(st.sampled_from(["x", "shape", "blades", "sigma_t"]), st.integers(-3, 3), max_size=2))
+
+
+def _paths(data, prefix=()):
+    """Every (container, key) pair of a parsed TOML document."""
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    for key, value in items:
+        yield prefix + (key,)
+        yield from _paths(value, prefix + (key,))
+
+
+def _parent(data, path):
+    for key in path[:-1]:
+        data = data[key]
+    return data
+
+
+@st.composite
+def mutated_scene(draw):
+    name = draw(st.sampled_from(sorted(PARSED)))
+    data = copy.deepcopy(PARSED[name])
+    for _ in range(draw(st.integers(1, 3))):
+        paths = list(_paths(data))
+        path = draw(st.sampled_from(paths))
+        parent, key = _parent(data, path), path[-1]
+        op = draw(st.sampled_from(["replace", "replace", "drop", "add", "double"]))
+        if op == "replace":
+            parent[key] = draw(VALUES)
+        elif op == "drop":
+            del parent[key]
+        elif op == "add" and isinstance(parent, dict):
+            parent[draw(st.sampled_from(["extra", "layer", "velocity", "aperture", "medium", "samples"]))] = draw(VALUES)
+        elif op == "double" and isinstance(parent, list):
+            parent.append(copy.deepcopy(parent[key]))
+    return name, data
+
+
+@st.composite
+def mutated_text(draw):
+    name = draw(st.sampled_from(sorted(SHIPPED)))
+    data = bytearray(SHIPPED[name])
+    for _ in range(draw(st.integers(1, 4))):
+        op = draw(st.sampled_from(["flip", "insert", "cut", "truncate"]))
+        i = draw(st.integers(0, max(len(data) - 1, 0)))
+        if op == "flip" and data:
+            data[i] ^= draw(st.integers(1, 255))
+        elif op == "insert":
+            data[i:i] = draw(st.sampled_from([b"nan", b"inf", b"-", b"1e999", b"[", b"]", b"=", b'"', b"\xff",
+                                              b"\n[scene]\n", b"\n[[shapes]]\n", b"\x00", b"../"]))
+        elif op == "cut":
+            del data[i:i + draw(st.integers(1, 40))]
+        else:
+            del data[i:]
+    return name, bytes(data)
+
+
+def check_plan(data, source):
+    """A valid scene plans; anything else is a UserError; no other exception escapes."""
+    try:
+        scene = parse_scene(data, source)
+        make_plan(scene)
+    except UserError as exc:
+        assert str(exc) and "\n" not in str(exc), repr(exc)
+
+
+def check_file(data: bytes):
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "s.toml")
+        with open(path, "wb") as fh:
+            fh.write(data)
+        try:
+            make_plan(load_scene(path))
+        except UserError as exc:
+            assert str(exc) and "\n" not in str(exc), repr(exc)
+        assert os.listdir(folder) == ["s.toml"]          # nothing left beside it
+
+
+def test_shipped_scenes_plan():
+    for name, data in PARSED.items():
+        make_plan(parse_scene(copy.deepcopy(data), name))
+
+
+@FAST
+@given(mutated_scene())
+def test_fuzz_scene_values(case):
+    check_plan(*reversed(case))
+
+
+@FAST
+@given(mutated_text())
+def test_fuzz_scene_text(case):
+    check_file(case[1])
+
+
+@pytest.mark.slow
+@SLOW
+@given(mutated_scene())
+def test_fuzz_scene_values_10k(case):
+    check_plan(*reversed(case))
+
+
+@pytest.mark.slow
+@SLOW
+@given(mutated_text())
+def test_fuzz_scene_text_10k(case):
+    check_file(case[1])
+
+
+def test_no_math_on_nan_reaches_the_plan():
+    """The finite check comes before every table's own checks (a NaN radius is not 'must be > 0')."""
+    data = copy.deepcopy(PARSED["tiny.toml"])
+    data["shapes"][2]["radius"] = math.nan
+    with pytest.raises(UserError, match=r"shapes #3.radius = nan: must be a finite number"):
+        parse_scene(data, "tiny.toml")

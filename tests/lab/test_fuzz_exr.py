@@ -11,7 +11,8 @@ import tempfile
 import numpy as np
 import OpenEXR
 import pytest
-from hypothesis import HealthCheck, given, settings
+from fuzz_support import FAST, SLOW, read_mutated
+from hypothesis import given
 from hypothesis import strategies as st
 
 from lab.errors import UserError
@@ -20,10 +21,6 @@ from lab.exr_io import LabelledImage, read_labelled, write_labelled
 THIN = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 2.0, "focus_distance_m": 3.0,
         "sensor_width_mm": 36.0, "shutter": [0.0, 1.0]}
 H = W = 6
-
-FAST = settings(max_examples=150, derandomize=True, deadline=5000, database=None,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-SLOW = settings(FAST, max_examples=10_000)
 
 
 def _channels() -> dict:
@@ -123,18 +120,14 @@ def mutated_file(draw):
     return bytes(data), ops
 
 
+def _read(path):
+    image = read_labelled(path)
+    assert isinstance(image, LabelledImage)
+    return image.layers(path)
+
+
 def check(data: bytes):
-    with tempfile.TemporaryDirectory() as folder:
-        path = os.path.join(folder, "in.exr")
-        with open(path, "wb") as fh:
-            fh.write(data)
-        try:
-            image = read_labelled(path)
-            assert isinstance(image, LabelledImage)
-            image.layers(path)
-        except UserError as exc:
-            assert str(exc) and "\n" not in str(exc), repr(exc)
-        assert os.listdir(folder) == ["in.exr"]
+    read_mutated(data, "in.exr", _read, UserError)
 
 
 def test_the_unmutated_file_reads():

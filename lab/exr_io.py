@@ -36,6 +36,7 @@ CAMERA_ATTR = "splatlab.camera"
 FORMAT_ATTR = "splatlab.format"
 FORMAT = "labelled-pixels/1"
 CORE = ("R", "G", "B", "A", "Z")
+EXR_MAGIC = b"\x76\x2f\x31\x01"
 MAX_CHANNELS = 1024     # 5 per layer: 200 layers, far beyond LES09's handful
 _LAYER = re.compile(r"layer(\d+)\.(.+)")
 
@@ -247,6 +248,10 @@ def _layout(path, header: dict) -> None:
 def _open(path) -> tuple[dict, dict]:
     printed: list = []
     with open_input(path, "EXR", "pass an OpenEXR file (.exr)") as fh:
+        if fh.read(4) != EXR_MAGIC:
+            raise UserError(f"{path}: not a readable OpenEXR file (it does not start with the EXR magic number); pass "
+                            "a labelled-pixel .exr (from `splatlab reference SCENE` or a renderer's EXR output)")
+        fh.seek(0)
         try:
             with _c_output(printed), OpenEXR.File(fh, header_only=True) as exr:
                 header = dict(exr.header())

@@ -191,8 +191,8 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
                  precompute=dict(_table(data, "precompute", source, default={})), medium=medium)
 
 
-def _read_toml(path, what: str = "scene file") -> dict:
-    text = read_text(path, what, "check the path (scenes live in scenes/)")
+def _read_toml(path, what: str = "scene file", fix: str = "check the path (scenes live in scenes/)") -> dict:
+    text = read_text(path, what, fix)
     if len(text) > MAX_SCENE_CHARS:
         raise UserError(f"{path}: {len(text)} characters, more than a scene file may hold ({MAX_SCENE_CHARS}: "
                         "scenes are a few kB); check that this is the scene file")
@@ -237,7 +237,7 @@ def load_camera(path) -> Camera:
     lab.cameras.Camera
         Use ``load_camera(path).camera_json()`` as the EXR camera override.
     """
-    data = _read_toml(path, "--camera file")
+    data = _read_toml(path, "--camera file", "pass a TOML file with a [camera] table (e.g. scenes/demo.toml)")
     if "camera" not in data:
         raise UserError(f"{path}: no [camera] table; a --camera file needs one (see scenes/demo.toml)")
     return parse_camera(_table(data, "camera", str(path)), f"{path} [camera]")

@@ -194,6 +194,8 @@ def _probe(path: Path, folder: Path, what: str) -> None:
         if os.statvfs(folder).f_bavail == 0:       # an empty file fits on a full disk; nothing else does
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     except OSError as exc:
+        if exc.errno == errno.ENOENT:               # the folder is there (/proc, a vanished mount)
+            raise InputError(f"{what} {path}: {folder} accepts no new files; choose another folder") from None
         raise os_error(exc, path, what, writing=True) from None
 
 

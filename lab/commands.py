@@ -53,6 +53,8 @@ def cmd_precompute(args) -> int:
     executor = _executor(args)
     if args.out is not None:
         check_output(args.out, "--out", suffix=".spdb")
+    if args.atlas is not None:
+        check_output_dir(args.atlas, "--atlas")
     target = resolve_target(args.target)
     if target.kind == "model":
         models = [load_target_model(target.name, args.sets)]

@@ -45,11 +45,13 @@ def work(tmp_path, monkeypatch):
     return tmp_path
 
 
-def fails_cleanly(argv, capsys, work, *needles) -> str:
-    """Run the CLI; assert exit 2, one line on stderr holding ``needles``, nothing changed."""
+def fails_cleanly(argv, capfd, work, *needles) -> str:
+    """Run the CLI; assert exit 2, one line on stderr holding ``needles``, nothing changed.
+
+    ``capfd`` (not capsys): what OpenEXR's C++ code prints goes to the file descriptors."""
     before = snapshot(work)
     code = main([str(a) for a in argv])
-    err = capsys.readouterr().err.strip().splitlines()
+    err = capfd.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1, (code, err)
     assert snapshot(work) == before, "files were left behind or changed"
     for needle in needles:
@@ -69,17 +71,17 @@ def render(work, *extra, out=None):
     ("{w}/db.spdb", ["--out", "also this command's input", "db.spdb"]),
     ("/sys/x.exr", ["--out /sys/x.exr", "permission denied"]),      # sysfs: no new files, even as root
 ])
-def test_render_bad_out(work, capsys, out, needles):
-    fails_cleanly(render(work, out=out.format(w=work)), capsys, work, *needles)
+def test_render_bad_out(work, capfd, out, needles):
+    fails_cleanly(render(work, out=out.format(w=work)), capfd, work, *needles)
 
 
-def test_render_refuses_the_camera_file_as_out(work, capsys):
+def test_render_refuses_the_camera_file_as_out(work, capfd):
     (work / "cam.toml").write_text("[camera]\nmodel = \"thin\"\n")
-    fails_cleanly(render(work, "--camera", work / "cam.toml", out=work / "cam.toml"), capsys, work,
+    fails_cleanly(render(work, "--camera", work / "cam.toml", out=work / "cam.toml"), capfd, work,
                   "also this command's input")
 
 
-def test_render_full_and_read_only_disks(work, capsys, monkeypatch):
+def test_render_full_and_read_only_disks(work, capfd, monkeypatch):
     """ENOSPC and EROFS while writing: one line naming --out, the old file kept, no temp."""
     import errno
 
@@ -91,7 +93,7 @@ def test_render_full_and_read_only_disks(work, capsys, monkeypatch):
             raise OSError(code, os.strerror(code))
 
         monkeypatch.setattr(atomic_file.os, "replace", refuse)
-        fails_cleanly(render(work), capsys, work, "o.exr", needle)
+        fails_cleanly(render(work), capfd, work, "o.exr", needle)
 
 
 @pytest.mark.parametrize("make, needles", [
@@ -100,9 +102,9 @@ def test_render_full_and_read_only_disks(work, capsys, monkeypatch):
     (lambda w: (w / "t.exr").write_bytes((w / "in.exr").read_bytes()[:2000]) and w / "t.exr",
      ["not a readable OpenEXR file"]),
 ])
-def test_render_bad_exr(work, capsys, make, needles):
+def test_render_bad_exr(work, capfd, make, needles):
     path = make(work)
-    fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capsys, work, *needles)
+    fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capfd, work, *needles)
 
 
 def exr_with(work, header=None, channels=None, name="bad.exr"):
@@ -123,24 +125,24 @@ def exr_with(work, header=None, channels=None, name="bad.exr"):
     ("[" * 100000 + "]" * 100000, ["nested 100000 deep", "--camera"]),
     (json.dumps(dict(THIN, f_number=1e400)), ["Infinity is not a JSON number"]),
 ])
-def test_render_bad_camera_header(work, capsys, camera, needles):
+def test_render_bad_camera_header(work, capfd, camera, needles):
     path = exr_with(work, {"splatlab.camera": camera})
-    fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capsys, work,
+    fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capfd, work,
                   "splatlab.camera", *needles)
 
 
-def test_render_without_z_names_an_existing_command(work, capsys):
+def test_render_without_z_names_an_existing_command(work, capfd):
     path = exr_with(work, channels={"Z": None})
-    msg = fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capsys, work,
+    msg = fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capfd, work,
                         "without Z")
     assert "splatlab reference SCENE" in msg
 
 
-def test_render_camera_file_not_utf8_or_a_folder(work, capsys):
+def test_render_camera_file_not_utf8_or_a_folder(work, capfd):
     (work / "cam.toml").write_bytes(b'[camera]\nmodel = "th\xffin"\n')
-    fails_cleanly(render(work, "--camera", work / "cam.toml"), capsys, work, "--camera file", "not UTF-8",
+    fails_cleanly(render(work, "--camera", work / "cam.toml"), capfd, work, "--camera file", "not UTF-8",
                   "line 2, column 12")
-    fails_cleanly(render(work, "--camera", work), capsys, work, "--camera file", "is a folder")
+    fails_cleanly(render(work, "--camera", work), capfd, work, "--camera file", "is a folder")
 
 
 @pytest.mark.parametrize("option, needles", [
@@ -149,9 +151,9 @@ def test_render_camera_file_not_utf8_or_a_folder(work, capsys):
     (["--edges", "2"], ["--edges 2", "[3, 256]"]),
     (["--edges", "100000"], ["--edges 100000", "[3, 256]"]),
 ])
-def test_polygon_options_are_named_and_bounded(work, capsys, option, needles):
+def test_polygon_options_are_named_and_bounded(work, capfd, option, needles):
     fails_cleanly(["render", work / "in.exr", "--method", "polygon", *option, "--out", work / "o.exr"],
-                  capsys, work, *needles)
+                  capfd, work, *needles)
 
 
 def resaved(work, **header):
@@ -175,8 +177,8 @@ def resaved(work, **header):
     ({"channels": True}, ["channels = True"]),
     ({"grid": {"n": 10 ** 15, "beta": [2], "ranges": [[0, 1]], "names": ["r"]}}, ["n = 1000000000000000"]),
 ])
-def test_database_bad_header_types(work, capsys, header, needles):
-    fails_cleanly(["db", "info", resaved(work, **header)], capsys, work, "spreadlet database", *needles)
+def test_database_bad_header_types(work, capfd, header, needles):
+    fails_cleanly(["db", "info", resaved(work, **header)], capfd, work, "spreadlet database", *needles)
 
 
 def scene(work, old, new, name="s.toml"):
@@ -198,14 +200,14 @@ def scene(work, old, new, name="s.toml"):
     ('name = "tiny"', 'name = "a\\u0000b"', ["name = 'a\\x00b'"]),
     ('name = "tiny"', 'name = "a/b"', ["name = 'a/b'"]),
 ])
-def test_scene_values(work, capsys, old, new, needles):
-    fails_cleanly(["plan", scene(work, old, new)], capsys, work, "s.toml", *needles)
+def test_scene_values(work, capfd, old, new, needles):
+    fails_cleanly(["plan", scene(work, old, new)], capfd, work, "s.toml", *needles)
 
 
-def test_scene_not_utf8_or_a_folder(work, capsys):
+def test_scene_not_utf8_or_a_folder(work, capfd):
     (work / "s.toml").write_bytes(TINY.encode().replace(b'"tiny"', b'"ti\xffny"'))
-    fails_cleanly(["plan", work / "s.toml"], capsys, work, "scene file", "not UTF-8", "save it as UTF-8")
-    fails_cleanly(["plan", work], capsys, work, "scene file", "is a folder")
+    fails_cleanly(["plan", work / "s.toml"], capfd, work, "scene file", "not UTF-8", "save it as UTF-8")
+    fails_cleanly(["plan", work], capfd, work, "scene file", "is a folder")
 
 
 @pytest.mark.parametrize("argv", [
@@ -224,10 +226,10 @@ def test_a_fifo_is_refused_without_blocking(work, argv):
     assert p.returncode == 2 and len(err) == 1 and "FIFO" in err[0], (p.returncode, err)
 
 
-def test_precompute_out_checked_before_any_work(work, capsys):
+def test_precompute_out_checked_before_any_work(work, capfd):
     sets = ["--set", "max_coc_px=6", "--set", "samples=4", "--set", "psf_resolution=17"]
-    fails_cleanly(["precompute", "simple_lens", *sets, "--out", work], capsys, work, "--out", "is a folder")
-    fails_cleanly(["precompute", "simple_lens", *sets, "--out", work / "in.exr" / "x.spdb"], capsys, work,
+    fails_cleanly(["precompute", "simple_lens", *sets, "--out", work], capfd, work, "--out", "is a folder")
+    fails_cleanly(["precompute", "simple_lens", *sets, "--out", work / "in.exr" / "x.spdb"], capfd, work,
                   "is a file, not a folder")
     assert not (work / "cache").exists()   # nothing was traced
 
@@ -238,28 +240,28 @@ def test_precompute_out_checked_before_any_work(work, capsys):
     (["samples=100000000000000"], ["samples = 100000000000000", "at most 65536"]),
     (["rays_per_psf=1" + "0" * 400], ["rays_per_psf", "at most"]),
 ])
-def test_precompute_sizes_are_bounded(work, capsys, sets, needles):
+def test_precompute_sizes_are_bounded(work, capfd, sets, needles):
     argv = ["precompute", "simple_lens", "--set", "max_coc_px=6"] + [a for s in sets for a in ("--set", s)]
-    fails_cleanly(argv, capsys, work, *needles)
+    fails_cleanly(argv, capfd, work, *needles)
 
 
-def test_reference_and_report_check_their_folder_first(work, capsys):
+def test_reference_and_report_check_their_folder_first(work, capfd):
     path = scene(work, "seed = 7", "seed = 8")
-    fails_cleanly(["reference", path, "--out-dir", work / "in.exr"], capsys, work, "--out-dir", "is a file")
-    fails_cleanly(["report", path, "--out-dir", work / "in.exr"], capsys, work, "--out-dir", "is a file")
+    fails_cleanly(["reference", path, "--out-dir", work / "in.exr"], capfd, work, "--out-dir", "is a file")
+    fails_cleanly(["report", path, "--out-dir", work / "in.exr"], capfd, work, "--out-dir", "is a file")
     assert not (work / "cache").exists()   # nothing was rendered
 
 
-def test_report_refuses_to_overwrite_its_baseline(work, capsys):
+def test_report_refuses_to_overwrite_its_baseline(work, capfd):
     path = scene(work, "seed = 7", "seed = 8")
     (work / "r").mkdir()
     (work / "r" / "report.json").write_text('{"methods": {}}')
     fails_cleanly(["report", path, "--out-dir", work / "r", "--baseline", work / "r" / "report.json"],
-                  capsys, work, "also this command's input")
+                  capfd, work, "also this command's input")
 
 
-def test_baseline_not_utf8_or_a_folder(work, capsys):
+def test_baseline_not_utf8_or_a_folder(work, capfd):
     path = scene(work, "seed = 7", "seed = 8")
     (work / "b.json").write_bytes(b"\xff\xfe{")
-    fails_cleanly(["report", path, "--baseline", work / "b.json"], capsys, work, "--baseline", "not UTF-8")
-    fails_cleanly(["report", path, "--baseline", work], capsys, work, "--baseline", "is a folder")
+    fails_cleanly(["report", path, "--baseline", work / "b.json"], capfd, work, "--baseline", "not UTF-8")
+    fails_cleanly(["report", path, "--baseline", work], capfd, work, "--baseline", "is a folder")

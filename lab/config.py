@@ -96,14 +96,14 @@ def to_table(obj) -> dict:
     return out
 
 
-# Keys where ``inf`` means something (a thick lens's flat face: radius inf); NaN never does.
-INF_ALLOWED = (("camera", "surfaces"),)
+# Tables where ``inf`` means something (a lens's flat face: radius inf, in [camera] and in
+# [psf.physical_lens]); NaN never does.
+INF_ALLOWED = ("surfaces",)
 
 
 def check_finite(data, where: str, key: str = "", allow_inf=INF_ALLOWED, _tables: tuple = ()) -> None:
     """UserError at the first NaN or infinite number anywhere in ``data`` (a parsed TOML file),
-    naming its key (e.g. ``shapes #3.center[0]``); ``inf`` passes under the table paths of
-    ``allow_inf``."""
+    naming its key (e.g. ``shapes #3.center[0]``); ``inf`` passes under a key in ``allow_inf``."""
     if isinstance(data, dict):
         for k, value in data.items():
             check_finite(value, where, f"{key}.{k}" if key else str(k), allow_inf, _tables + (str(k),))
@@ -112,7 +112,7 @@ def check_finite(data, where: str, key: str = "", allow_inf=INF_ALLOWED, _tables
             part = f" #{i + 1}" if isinstance(value, dict) else f"[{i}]"
             check_finite(value, where, key + part, allow_inf, _tables)
     elif isinstance(data, float) and not math.isfinite(data):
-        if math.isinf(data) and any(_tables[:len(a)] == a for a in allow_inf):
+        if math.isinf(data) and set(_tables) & set(allow_inf):
             return
         raise UserError(f"{where}: {key} = {data}: must be a finite number (NaN and inf are no position, "
                         "size or setting); write a real value")

@@ -344,8 +344,9 @@ def read_labelled(path, camera: dict | None = None) -> LabelledImage:
     """
     header, channels = _open(path)
     fmt = header.get(FORMAT_ATTR, FORMAT)
-    if fmt != FORMAT:
-        raise UserError(f"{path}: {FORMAT_ATTR} = {fmt!r}, this version reads {FORMAT!r}; "
+    if fmt != FORMAT:   # not repr() of a non-string: OpenEXR's opaque attributes may not print
+        shown = repr(fmt) if isinstance(fmt, str) else f"an attribute of type {type(fmt).__name__}"
+        raise UserError(f"{path}: {FORMAT_ATTR} = {shown}, this version reads {FORMAT!r}; "
                         "re-render the input with this splatlab")
     _require(path, channels, "RGB", "a labelled-pixel EXR needs linear R, G, B radiance")
     if "Z" not in channels:

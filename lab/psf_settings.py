@@ -118,7 +118,14 @@ def near_window_px(scene) -> int:
     from .psf_tracing.models.simple_lens import PSF_MARGIN_PX
     from .psf_tracing.models.volume_config import VolumeConfig
 
-    return int(scene.psf.get("volume", {}).get("psf_resolution", VolumeConfig.psf_resolution)) // 2 - PSF_MARGIN_PX
+    from .psf_tracing.models.common import check_number
+
+    resolution = scene.psf.get("volume", {}).get("psf_resolution", VolumeConfig.psf_resolution)
+    try:
+        check_number("psf_resolution", resolution, integer=True)
+    except UserError as exc:
+        raise UserError(f"{scene.source} [psf.volume]: {exc}") from None
+    return resolution // 2 - PSF_MARGIN_PX
 
 
 def far_field_needed(scene) -> bool:

@@ -168,3 +168,14 @@ def test_fuzz_exr(case):
 @given(mutated_file())
 def test_fuzz_exr_10k(case):
     check(case[0])
+
+
+def test_found_by_fuzzing_a_format_attribute_of_another_type(tmp_path):
+    """10 000-case run: a flipped byte turned ``splatlab.format``'s type ``string`` into an unknown
+    one, and printing that attribute raised UnicodeDecodeError."""
+    data = bytearray(GOOD)
+    at = data.index(b"splatlab.format\0") + len(b"splatlab.format\0")
+    data[at] ^= 0x80
+    (tmp_path / "in.exr").write_bytes(bytes(data))
+    with pytest.raises(UserError, match=r"splatlab.format = an attribute of type"):
+        read_labelled(tmp_path / "in.exr")

@@ -133,3 +133,12 @@ def test_no_math_on_nan_reaches_the_plan():
     data["shapes"][2]["radius"] = math.nan
     with pytest.raises(UserError, match=r"shapes #3.radius = nan: must be a finite number"):
         parse_scene(data, "tiny.toml")
+
+
+@pytest.mark.parametrize("value", [[1, 2], "", True, -4])
+def test_found_by_fuzzing_a_volume_psf_resolution_of_the_wrong_type(value):
+    """10 000-case run: ``[psf.volume] psf_resolution = []`` or ``""`` reached ``int()`` in the plan."""
+    data = copy.deepcopy(PARSED["tiny_fog.toml"])
+    data["psf"]["volume"]["psf_resolution"] = value
+    with pytest.raises(UserError, match=r"tiny_fog.toml \[psf.volume\]: psf_resolution = .*must be an integer"):
+        make_plan(parse_scene(data, "tiny_fog.toml"))

@@ -1,14 +1,12 @@
 """A precompute killed with SIGKILL leaves no worker process behind, and the next run removes
 the temporary file a killed database write left in the cache."""
 import os
-import signal
 import subprocess
 import sys
-import time
 
 import pytest
+from kill_support import sigkill_when_busy
 
-from lab.paths import ROOT
 from lab.precompute import content_hash, precompute
 from lab.precompute.naming import database_path
 from runtime_cl.atomic_file import _HOST
@@ -22,32 +20,8 @@ SLOW = {"max_coc_px": 24.0, "samples": 21, "psf_resolution": 53, "rays_per_psf":
 
 @pytest.mark.slow
 def test_sigkill_of_precompute_workers_2_leaves_no_worker(tmp_path):
-    psutil = pytest.importorskip("psutil")
-    cache = tmp_path / "cache"
-    proc = subprocess.Popen([sys.executable, "-m", "lab.cli", "precompute", "simple_lens", *cli_sets(SLOW),
-                             "--workers", "2", "--quiet"], cwd=ROOT, env=dict(os.environ, SPLATLAB_CACHE=str(cache)),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    children = []
-    try:
-        deadline = time.monotonic() + 180
-        while not list(cache.glob("precompute/*/cell*.npz")):     # the workers are tracing
-            assert proc.poll() is None, proc.stderr.read()
-            assert time.monotonic() < deadline, "no shard within 180 s"
-            time.sleep(0.01)
-        children = psutil.Process(proc.pid).children(recursive=True)
-        assert len([c for c in children if "spawn_main" in " ".join(c.cmdline())]) == 2, \
-            [c.cmdline() for c in children]
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(30)
-        _, alive = psutil.wait_procs(children, timeout=15)   # they poll their parent every 0.25 s
-        assert not alive, [c.cmdline() for c in alive]
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        for child in children:
-            if child.is_running():
-                child.kill()
-    assert proc.returncode == -signal.SIGKILL
+    sigkill_when_busy(["precompute", "simple_lens", *cli_sets(SLOW), "--workers", "2", "--quiet"],
+                      tmp_path / "cache", "precompute/*/cell*.npz")
 
 
 def test_a_killed_database_write_leaves_a_temp_the_next_run_removes(cache):

@@ -121,8 +121,12 @@ def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool 
 
 
 def load_scene_and_plan(path) -> tuple:
+    from .psf_settings import check_tables
+
     scene = load_scene(path)
-    return scene, make_plan(scene)
+    plan = make_plan(scene)
+    check_tables(scene, plan.psf_models)   # a bad [psf.*] setting fails before any render
+    return scene, plan
 
 
 def default_out_dir(scene: Scene) -> Path:

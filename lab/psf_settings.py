@@ -180,6 +180,38 @@ def _physical_lens(table: dict, scene, image) -> dict:
     return table
 
 
+class _NeedsInput(Exception):
+    """A setting depends on the labelled input, which :func:`check_tables` does not have."""
+
+
+class _NoInput:
+    """Stands in for the labelled input in :func:`check_tables`: any use of it says so."""
+
+    def __getattr__(self, name):
+        raise _NeedsInput(name)
+
+
+def check_tables(scene, models) -> None:
+    """Validate the scene's ``[psf.<model>]`` tables before anything is rendered, each one whose
+    settings do not depend on the labelled input (the scene gives what the input would decide):
+    a bad setting then fails in a second, not after the input and reference renders. The other
+    tables are checked by :func:`model_table` once the input exists.
+
+    Raises
+    ------
+    UserError
+        A model's own checks, naming the scene file and ``[psf.<model>]``.
+    """
+    from .psf_tracing.models import load_model
+
+    for name in models:
+        try:
+            table = model_table(scene, name, _NoInput())
+        except _NeedsInput:
+            continue
+        load_model(name, table, f"{scene.source} [psf.{name}]")
+
+
 # Model name -> fill(table, scene, labelled input) -> table.
 SCENE_SETTINGS = {"simple_lens": _simple_lens, "combined": _combined, "stylized": _stylized, "volume": _volume,
                   "volume_far": _volume_far, "physical_lens": _physical_lens}

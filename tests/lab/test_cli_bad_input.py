@@ -265,3 +265,12 @@ def test_baseline_not_utf8_or_a_folder(work, capfd):
     (work / "b.json").write_bytes(b"\xff\xfe{")
     fails_cleanly(["report", path, "--baseline", work / "b.json"], capfd, work, "--baseline", "not UTF-8")
     fails_cleanly(["report", path, "--baseline", work], capfd, work, "--baseline", "is a folder")
+
+
+@pytest.mark.parametrize("command", ["plan", "precompute", "reference", "report"])
+def test_a_bad_psf_setting_fails_before_any_render(work, capfd, command):
+    """``max_coc_px = -3`` is blamed on max_coc_px (not the psf_resolution derived from it), before
+    the input and reference renders (the table does not need the input: it gives max_coc_px)."""
+    path = scene(work, "[psf.simple_lens]", "[psf.simple_lens]\nmax_coc_px = -3")
+    fails_cleanly([command, path], capfd, work, "[psf.simple_lens]: max_coc_px = -3.0: must be a finite number > 0")
+    assert not (work / "cache").exists()

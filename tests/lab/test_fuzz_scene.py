@@ -1,8 +1,8 @@
 """Fuzzing the scene reader: mutations of the shipped scenes give a valid plan or a UserError.
 
 Structured mutations (a value replaced, a key dropped or added, a list entry doubled) go through
-:func:`lab.scene.parse_scene` and the plan; text mutations (bytes flipped, inserted, cut) through
-:func:`lab.scene.load_scene`, the file reader. Seeded (derandomize) and bounded (examples,
+:func:`lab.scene.parse_scene`, the plan and the early ``[psf.*]`` checks; text mutations (bytes
+flipped, inserted, cut) through :func:`lab.pipeline.load_scene_and_plan`, what every command runs. Seeded (derandomize) and bounded (examples,
 deadline); ``-m slow`` runs 10 000 cases of each.
 """
 import copy
@@ -16,8 +16,10 @@ from hypothesis import strategies as st
 
 from lab.errors import UserError
 from lab.paths import SCENES
+from lab.pipeline import load_scene_and_plan
 from lab.plan import make_plan
-from lab.scene import load_scene, parse_scene
+from lab.psf_settings import check_tables
+from lab.scene import parse_scene
 
 SHIPPED = {p.name: p.read_bytes() for p in sorted(SCENES.glob("*.toml"))}
 PARSED = {name: tomllib.loads(data.decode()) for name, data in SHIPPED.items()}
@@ -58,7 +60,8 @@ def mutated_scene(draw):
         elif op == "drop":
             del parent[key]
         elif op == "add" and isinstance(parent, dict):
-            parent[draw(st.sampled_from(["extra", "layer", "velocity", "aperture", "medium", "samples"]))] = draw(VALUES)
+            parent[draw(st.sampled_from(["extra", "layer", "velocity", "aperture", "medium", "samples", "max_coc_px",
+                                         "max_motion_px", "psf_resolution", "min_distance_m"]))] = draw(VALUES)
         elif op == "double" and isinstance(parent, list):
             parent.append(copy.deepcopy(parent[key]))
     return name, data
@@ -87,13 +90,13 @@ def check_plan(data, source):
     """A valid scene plans; anything else is a UserError; no other exception escapes."""
     try:
         scene = parse_scene(data, source)
-        make_plan(scene)
+        check_tables(scene, make_plan(scene).psf_models)
     except UserError as exc:
         assert str(exc) and "\n" not in str(exc), repr(exc)
 
 
 def check_file(data: bytes):
-    read_mutated(data, "s.toml", lambda path: make_plan(load_scene(path)), UserError)
+    read_mutated(data, "s.toml", load_scene_and_plan, UserError)
 
 
 def test_shipped_scenes_plan():

@@ -7,6 +7,8 @@ import shutil
 import sys
 from pathlib import Path
 
+from runtime_cl.atomic_file import atomic_path, check_output, check_output_dir
+
 from .errors import UserError
 from .paths import DEMO_SCENE, REPORTS
 
@@ -50,6 +52,10 @@ def cmd_precompute(args) -> int:
     from .precompute.target import load_target_model, resolve_target
 
     executor = _executor(args)
+    if args.out is not None:
+        check_output(args.out, "--out", suffix=".spdb")
+    if args.atlas is not None:
+        check_output_dir(args.atlas, "--atlas")
     target = resolve_target(args.target)
     if target.kind == "model":
         models = [load_target_model(target.name, args.sets)]
@@ -75,8 +81,8 @@ def cmd_precompute(args) -> int:
             state = f"built in {r.seconds:.1f} s: {r.cells} PSFs on {r.executor}{pace}"
         print(f"{model.name}: {r.path} ({state})")
         if args.out:
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(r.path, args.out)
+            with atomic_path(args.out, fsync=True, what="--out") as tmp:
+                shutil.copyfile(r.path, tmp)
             print(f"{model.name}: copied to {args.out}")
         if args.atlas:
             from runtime_cl.psf.database import SpreadletDatabase
@@ -94,8 +100,7 @@ def cmd_reference(args) -> int:
 
     executor = _executor(args)
     scene, plan = load_scene_and_plan(args.scene)
-    out = args.out_dir or default_out_dir(scene)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_output_dir(args.out_dir or default_out_dir(scene))   # created by the writers
     with executor:
         image, reference, _ = inputs_and_reference(scene, plan, progress=not args.quiet, executor=executor)
     write_labelled(out / "input.exr", image)
@@ -153,6 +158,7 @@ def cmd_render(args) -> int:
 
     cls = get_pass(args.method)
     _check_render_options(args, cls)
+    check_output(args.out, "--out", (args.input, args.db, args.far_db, args.camera), ".exr")
     image = read_input(args.input, args.camera)
     db = None if args.db is None else SpreadletDatabase.load(args.db)
     if db is not None:
@@ -227,6 +233,8 @@ def cmd_report(args) -> int:
     names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
     if len(set(names)) < len(names):
         raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
+    if len(scenes) > 1:
+        check_output_dir(args.out_dir or REPORTS / "table2")   # before hours of work
     with _executor(args) as executor:
         if len(scenes) == 1:
             return _report(scenes[0], args.out_dir, args.baseline, executor, args.noise_floor)[0]

@@ -157,7 +157,8 @@ def test_peeling_settings_are_checked():
     base = {"scene": {"name": "p", "resolution": [16, 8]},
             "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **THIN},
             "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}
-    for render, message in (({"peel_layers": 0}, "peel_layers = 0 must be >= 1"),
+    for render, message in (({"peel_layers": 0}, "peel_layers = 0 must be between 1 and 64"),
+                            ({"lens_rays": 100000, "peel_layers": 2}, "lens_rays = 100000 must be between 1 and 4096"),
                             ({"lens_rays": 32}, "lens_rays = 32: lens rays trace peeled layers")):
         with pytest.raises(UserError, match=message):
             parse_scene({**base, "render": render}, "p.toml")

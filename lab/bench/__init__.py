@@ -8,6 +8,8 @@ One module per benchmark:
 - :mod:`.polygon` - MHU21's exact polygonal bokeh (``bench polygon``);
 - :mod:`.spreadlet_throughput` - kernel rates on synthetic discs, and the cost of per-pixel
   rotation (``bench rotation``);
+- :mod:`.integrate` - the Poisson integrators: errors against the exact solve and times at
+  1024^2 and 4096^2 (``bench integrate``);
 - :mod:`.tracing` - Dr.Jit PSF tracing rays/s of one model;
 - :mod:`.sparsify` - the sparsifier on analytic PSFs (``python -m lab.bench.sparsify``).
 """
@@ -42,9 +44,15 @@ def _polygon(args) -> list:
     return [bench_polygon(args["repeats"], quick=args["quick"])]
 
 
+def _integrate(args) -> list:
+    from .integrate import bench_integrate
+
+    return [bench_integrate(args["repeats"], sizes=(1024,) if args["quick"] else (1024, 4096))]
+
+
 # ``splatlab bench WHAT``: the benchmarks each name runs, in order.
 BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
-           "rotation": (_rotation,), "all": (_precompute, _runtime)}
+           "rotation": (_rotation,), "integrate": (_integrate,), "all": (_precompute, _runtime)}
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,

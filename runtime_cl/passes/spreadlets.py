@@ -12,7 +12,9 @@ from typing import ClassVar
 import numpy as np
 
 from runtime_cl.coords.maps import needs_motion, psf_coords
-from runtime_cl.passes.registry import RuntimePass, register_pass
+from runtime_cl.errors import InputError
+from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
+from runtime_cl.passes.registry import RuntimePass, integrating_passes, register_pass
 from runtime_cl.spreadlets.renderer import Renderer
 from runtime_cl.spreadlets.splat import RUN_MAX
 from runtime_cl.timing import CallTimes
@@ -23,7 +25,9 @@ __all__ = ["SpreadletPass", "SpreadletsPass", "SplatPass", "FilterPass"]
 class SpreadletPass(RuntimePass):
     """A :class:`Renderer` method on a database of any model the runtime has coordinates for.
 
-    Options: ``tile``, ``run_max`` and ``spreadlet_rotation`` as for :class:`Renderer`.
+    Options: ``tile``, ``run_max``, ``spreadlet_rotation`` and, for a pass that integrates a
+    Laplacian canvas (``integrates``), ``integrator`` as for :class:`Renderer` (a name from
+    :func:`runtime_cl.integrate.integrator_names`; default ``"exact"``).
     """
 
     method: ClassVar[str]
@@ -31,9 +35,14 @@ class SpreadletPass(RuntimePass):
     channels = ("R", "G", "B", "Z")
     layered = False
 
-    def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear"):
+    def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
+                  integrator: str = DEFAULT_INTEGRATOR):
+        get_integrator(integrator)   # an unknown name is an error for every pass
+        if integrator != DEFAULT_INTEGRATOR and not self.integrates:
+            raise InputError(f"integrator = {integrator!r}: the {self.name!r} pass integrates no Laplacian; "
+                             f"the integrator is an option of {integrating_passes()}")
         self.renderer = Renderer(self.db, self.device, tile=tile, run_max=run_max,
-                                 spreadlet_rotation=spreadlet_rotation)
+                                 spreadlet_rotation=spreadlet_rotation, integrator=integrator)
 
     def prepare(self, frame):
         motion = frame.motion if needs_motion(self.db.model) else None
@@ -42,14 +51,16 @@ class SpreadletPass(RuntimePass):
     def __call__(self, prepared):
         rgb, coords = prepared
         image, t = self.renderer.render(rgb, coords.coords, self.method, angle=coords.angle)
-        return image, CallTimes(device_ms=t["kernel_ms"], transfer_ms=t["upload_ms"] + t["download_ms"],
+        return image, CallTimes(device_ms=t["kernel_ms"] + t["integrate_device_ms"],
+                                transfer_ms=t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"],
                                 counts={k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels")})
 
 
 @register_pass("spreadlets")
 class SpreadletsPass(SpreadletPass):
-    summary = "LSR18 Laplacian spreadlets, exact FFT Poisson integration"
+    summary = "LSR18 Laplacian spreadlets, Poisson integration (--integrator; default exact FFT)"
     method = "spreadlets"
+    integrates = True
 
 
 @register_pass("splat")

@@ -1,0 +1,177 @@
+"""Fit the convolution pyramid's kernels (``python -m lab.pyramid_fit``): writes
+``runtime_cl/integrate/pyramid_kernels.json``, which :mod:`runtime_cl.integrate.pyramid_model`
+reads.
+
+What is fitted: the operator of :mod:`runtime_cl.integrate.pyramid_model` should map the 5-point
+Laplacian of any image that is zero on its border ring back to the image, i.e. act as convolution
+with the free-space Green's function of the 5-point Laplacian (which is what the exact FFT solve
+computes on such canvases). The training set is such images: sums of soft-edged discs of
+log-uniform radii from 1 px to a sixth of the canvas and exponential intensities, blurred or not
+(PSF-like), on canvases of 128^2 to 256^2 (:func:`training_set`); the truth is the image itself.
+
+How (variable projection): the output is linear in the ``g`` kernels' values once ``h1`` and
+``h2`` are fixed. For given taps, each basis kernel of each ``g`` (one per fine level, one shared
+by the coarser levels; :func:`runtime_cl.integrate.pyramid_model.symmetric_basis`) is pushed
+through the pyramid alone, giving one column per value; the ``g`` values are the least-squares
+fit of the columns to the images, every pixel's error relative to its image's largest value
+(the error the benchmark reports). ``scipy.optimize.minimize`` (Nelder-Mead) searches the taps
+of ``h1`` (centre fixed at 1: its scale trades with ``g``'s) and ``h2`` on that residual. A few
+rounds of reweighting then raise the weight of the pixels with the largest errors (weights
+``1 + (|e| / mean|e|)``), which trades a little mean error for a lower maximum.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from runtime_cl.atomic_file import atomic_path
+from runtime_cl.integrate.pyramid_model import (FORMAT, KERNELS_FILE, PAD, TOP, PyramidKernels, analysis,
+                                                correlate2, ring_mean, symmetric_basis, symmetric_kernel,
+                                                upsample)
+from runtime_cl.integrate.poisson import laplacian5
+
+__all__ = ["disc_image", "training_set", "basis_columns", "fit", "relative_errors", "main"]
+
+
+def disc_image(n: int, rng, discs: int, r_max: float | None = None, blur: float = 0.0) -> np.ndarray:
+    """(n, n) sum of ``discs`` soft-edged (1 px rim) discs, radii log-uniform in [1, r_max]
+    (default n / 6), exponential intensities, optionally Gaussian-blurred by ``blur`` px; zero on
+    a border ring of ``r_max`` + 2 px (so the image is exactly recoverable from its Laplacian)."""
+    r_max = r_max or n / 6
+    border = int(r_max + 3 * blur) + 2
+    y, x = np.mgrid[0:n, 0:n] + 0.5
+    f = np.zeros((n, n))
+    for _ in range(discs):
+        r = float(np.exp(rng.uniform(0.0, np.log(r_max))))
+        lo, hi = border + r, n - border - r
+        cx, cy = rng.uniform(lo, hi, 2) if hi > lo else (n / 2, n / 2)
+        f += rng.exponential(1.0) * np.clip(r + 0.5 - np.hypot(x - cx, y - cy), 0.0, 1.0)
+    if blur > 0:
+        from scipy.ndimage import gaussian_filter
+
+        f = gaussian_filter(f, blur, mode="constant")
+    f[0] = f[-1] = f[:, 0] = f[:, -1] = 0.0
+    return f
+
+
+def training_set(seed: int) -> list[np.ndarray]:
+    """The images the kernels are fitted on (``seed`` 1) or checked on (another seed)."""
+    rng = np.random.default_rng(seed)
+    sizes = [(128, 10, 0.0), (192, 20, 0.0), (256, 30, 0.0), (256, 8, 0.0), (256, 60, 0.0),
+             (256, 30, 1.5)]
+    return [disc_image(n, rng, k, blur=b) for n, k, b in sizes]
+
+
+def basis_columns(lap: np.ndarray, h1, h2, radius: int, own_levels: int) -> np.ndarray:
+    """(pixels, values): the pyramid's output for each basis kernel of each ``g`` alone, border
+    ring mean removed. ``g`` number ``k < own_levels`` serves level ``k``, the last one every
+    level from ``own_levels`` on."""
+    a = analysis(lap - lap.mean(), h1)
+    basis = symmetric_basis(radius)
+    cols = []
+    for group in range(own_levels + 1):
+        levels = [group] if group < own_levels else list(range(own_levels, len(a)))
+        for b in basis:
+            s = None
+            for level in range(len(a) - 1, -1, -1):
+                if s is not None:
+                    s = upsample(s, h2, a[level].shape)
+                if level in levels:
+                    term = correlate2(a[level], b)
+                    s = term if s is None else s + term
+            cols.append((s - ring_mean(s)).ravel())
+    return np.stack(cols, axis=1)
+
+
+def _taps(p, n_taps: int):
+    r = n_taps // 2
+    h1 = np.r_[p[:r], 1.0, p[:r][::-1]]
+    h2 = np.r_[p[r:2 * r], p[2 * r], p[r:2 * r][::-1]]
+    return h1, h2
+
+
+def _system(p, images, n_taps, radius, own_levels):
+    h1, h2 = _taps(p, n_taps)
+    rows, rhs = [], []
+    for f in images:
+        s = 1.0 / np.abs(f).max()
+        rows.append(basis_columns(laplacian5(f), h1, h2, radius, own_levels) * s)
+        rhs.append(f.ravel() * s)
+    return np.concatenate(rows), np.concatenate(rhs)
+
+
+def _solve(A, b, weights=None):
+    w = 1.0 if weights is None else weights[:, None]
+    c, *_ = np.linalg.lstsq(A * w, b * (1.0 if weights is None else weights), rcond=None)
+    return c
+
+
+def fit(images, n_taps: int = 7, radius: int = 1, own_levels: int = 2, evaluations: int = 300,
+        reweight: int = 4) -> tuple[PyramidKernels, dict]:
+    """Fit the kernels on ``images`` (zero-border, (n, n)); returns them and the fit's record."""
+    from scipy.optimize import minimize
+
+    def residual(p):
+        A, b = _system(p, images, n_taps, radius, own_levels)
+        return float(np.mean((A @ _solve(A, b) - b) ** 2))
+
+    r = n_taps // 2
+    p0 = np.r_[np.linspace(0.05, 0.7, r), np.linspace(0.03, 0.32, r), 0.42]  # smooth bumps
+    start = time.perf_counter()
+    res = minimize(residual, p0, method="Nelder-Mead",
+                   options={"maxfev": evaluations, "xatol": 1e-5, "fatol": 1e-13})
+    A, b = _system(res.x, images, n_taps, radius, own_levels)
+    c, weights = _solve(A, b), None
+    for _ in range(reweight):
+        e = np.abs(A @ c - b)
+        weights = 1.0 + e / e.mean()
+        c = _solve(A, b, weights)
+    h1, h2 = _taps(res.x, n_taps)
+    per = len(symmetric_basis(radius))
+    g = [list(map(float, c[k * per:(k + 1) * per])) for k in range(own_levels + 1)]
+    kernels = PyramidKernels(h1, h2, tuple(symmetric_kernel(v, radius) for v in g))
+    record = {"n_taps": n_taps, "g_radius": radius, "own_levels": own_levels,
+              "evaluations": int(res.nfev), "reweight_rounds": reweight,
+              "seconds": round(time.perf_counter() - start, 1), "g_values": g}
+    return kernels, record
+
+
+def relative_errors(images, kernels: PyramidKernels) -> list[dict]:
+    """Per image: mean and max over pixels of |pyramid - exact| / max|exact|."""
+    from runtime_cl.integrate.pyramid_model import pyramid_integrate_numpy
+
+    out = []
+    for f in images:
+        e = np.abs(pyramid_integrate_numpy(laplacian5(f), kernels) - f) / np.abs(f).max()
+        out.append({"size": f.shape[0], "mean": float(e.mean()), "max": float(e.max())})
+    return out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m lab.pyramid_fit", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--taps", type=int, default=7, help="length of h1 and h2 (odd; default 7)")
+    parser.add_argument("--radius", type=int, default=1, help="radius of g (default 1: 3x3)")
+    parser.add_argument("--own-levels", type=int, default=2, help="fine levels with their own g (default 2)")
+    parser.add_argument("--evaluations", type=int, default=300, help="Nelder-Mead evaluations (default 300)")
+    parser.add_argument("--out", default=str(KERNELS_FILE), help="kernels file (default: the runtime's)")
+    args = parser.parse_args(argv)
+    kernels, record = fit(training_set(1), args.taps, args.radius, args.own_levels, args.evaluations)
+    record["train"] = relative_errors(training_set(1), kernels)
+    record["check"] = relative_errors(training_set(7), kernels)
+    data = {"format": FORMAT, "pad": PAD, "top": TOP, "h1": kernels.h1.tolist(), "h2": kernels.h2.tolist(),
+            "g_radius": args.radius, "g": record.pop("g_values"), "fit": record}
+    with atomic_path(args.out) as tmp:
+        tmp.write_text(json.dumps(data, indent=1) + "\n")
+    for name in ("train", "check"):
+        worst = max(e["max"] for e in record[name])
+        mean = np.mean([e["mean"] for e in record[name]])
+        print(f"{name}: mean relative error {mean:.5f}, max {worst:.4f}")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,140 @@
+"""The convolution-pyramid integrator (Farbman et al. 2011) on the OpenCL device.
+
+The operator is :mod:`runtime_cl.integrate.pyramid_model`'s (analysis with ``h1`` and halving,
+one ``g`` per level, synthesis with zero insertion and ``h2``), with the fitted kernels of
+``pyramid_kernels.json`` (``python -m lab.pyramid_fit`` fits them; that module says how). It
+approximates the free-space Green's function of the 5-point Laplacian, which on a canvas whose
+image is zero on its border ring is what the exact FFT solve computes: ``splatlab bench integrate``
+measures how far apart they are and how much faster the pyramid is.
+
+Kernels (``kernels/integrate/pyramid.cl``), one launch per level and step, all on the device:
+the canvas mean (row sums, then their sum), the analysis levels, the synthesis from the
+coarsest level up, the mean of level 0's border ring (computed from level 1 before level 0 is
+written, so level 0 is written once, already shifted), then one download.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from runtime_cl.device.opencl import event_ms, get_device
+from runtime_cl.errors import InputError
+from runtime_cl.integrate.pyramid_model import PAD, PyramidKernels, level_shapes, load_kernels, ring_mean
+from runtime_cl.integrate.registry import Integrator, register_integrator
+
+__all__ = ["PyramidIntegrator"]
+
+_I = np.int32
+
+
+@register_integrator("pyramid")
+class PyramidIntegrator(Integrator):
+    """Convolution-pyramid Poisson integration on the OpenCL device.
+
+    Parameters
+    ----------
+    device : Device, optional
+        Default :func:`~runtime_cl.device.opencl.get_device`.
+    kernels : PyramidKernels, optional
+        Default: the fitted ones (:func:`~runtime_cl.integrate.pyramid_model.load_kernels`).
+    """
+
+    summary = "convolution pyramid (Farbman et al. 2011) on the OpenCL device, fitted kernels"
+
+    def __init__(self, device=None, kernels: PyramidKernels | None = None):
+        super().__init__(device or get_device())
+        self.kernels = kernels or load_kernels()
+        self._programs: dict = {}
+        self._buffers: dict = {}
+        self._coefficients = None
+
+    def _program(self, channels: int):
+        import pyopencl as cl
+
+        if channels not in self._programs:
+            k = self.kernels
+            options = [f"-DC={channels}", f"-DR1={len(k.h1) // 2}", f"-DR2={len(k.h2) // 2}",
+                       f"-DRG={k.g[0].shape[0] // 2}", f"-DPAD={PAD}"]
+            program, record = self.device.program(("integrate/pyramid.cl",), options)
+            kernels = {n: cl.Kernel(program, n) for n in ("row_sums", "finish_mean", "analysis_rows",
+                                                          "analysis_cols", "synthesis", "ring_mean")}
+            kernels["row_sums"].set_scalar_arg_dtypes([None, _I, None])
+            kernels["finish_mean"].set_scalar_arg_dtypes([None, _I, _I, None])
+            kernels["analysis_rows"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None])
+            kernels["analysis_cols"].set_scalar_arg_dtypes([None, _I, _I, None, _I, None])
+            kernels["synthesis"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, _I, None, None,
+                                                        None, None])
+            kernels["ring_mean"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, None, None, None])
+            self._programs[channels] = kernels
+            self.device.warm_up(record, lambda: self(np.zeros((32, 32, channels), np.float32)))  # every kernel
+        return self._programs[channels]
+
+    def _constants(self):
+        import pyopencl as cl
+
+        if self._coefficients is None:
+            flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
+            ctx, k = self.device.context, self.kernels
+            buf = lambda a: cl.Buffer(ctx, flags, hostbuf=np.ascontiguousarray(a, np.float32))  # noqa: E731
+            self._coefficients = (buf(k.h1), buf(k.h2), [buf(g) for g in k.g])
+        return self._coefficients
+
+    def _level_buffers(self, h: int, w: int, channels: int):
+        """Per level: the analysis ``a`` (level 0: the uploaded canvas) and the synthesis ``s``."""
+        import pyopencl as cl
+
+        key = (h, w, channels)
+        if key not in self._buffers:
+            ctx, mf = self.device.context, cl.mem_flags
+            shapes = level_shapes(h, w)
+            a = [cl.Buffer(ctx, mf.READ_WRITE, max(4, hh * ww * channels * 4)) for hh, ww in shapes]
+            s = [cl.Buffer(ctx, mf.READ_WRITE, max(4, hh * ww * channels * 4)) for hh, ww in shapes]
+            zeros = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.zeros(channels, np.float32))
+            small = [cl.Buffer(ctx, mf.READ_WRITE, channels * 4) for _ in range(2)]   # mean, offset
+            sums = cl.Buffer(ctx, mf.READ_WRITE, h * channels * 4)
+            tmp = cl.Buffer(ctx, mf.READ_WRITE, max(4, h * shapes[min(1, len(shapes) - 1)][1] * channels * 4))
+            self._buffers = {key: (shapes, a, s, zeros, small, sums, tmp)}   # one canvas size at a time
+        return self._buffers[key]
+
+    def __call__(self, laplacian) -> tuple:
+        import pyopencl as cl
+
+        lap = np.ascontiguousarray(laplacian, dtype=np.float32)
+        if lap.ndim not in (2, 3):
+            raise InputError(f"laplacian: shape {lap.shape}, need (H, W) or (H, W, C)")
+        h, w = lap.shape[:2]
+        if h < 3 or w < 3:
+            raise InputError(f"laplacian: canvas {h}x{w} is too small, need at least 3x3")
+        channels = 1 if lap.ndim == 2 else lap.shape[2]
+        kern = self._program(channels)
+        h1, h2, gs = self._constants()
+        shapes, a, s, zeros, (mean, offset), sums, tmp = self._level_buffers(h, w, channels)
+        g_at = lambda level: gs[min(level, len(gs) - 1)]  # noqa: E731
+        q = self.device.queue
+        up = cl.enqueue_copy(q, a[0], lap, is_blocking=False)
+        ev = [kern["row_sums"](q, (h,), None, a[0], w, sums),
+              kern["finish_mean"](q, (channels,), None, sums, h, w, mean)]
+        for level in range(len(shapes) - 1):
+            (hh, ww), (nh, nw) = shapes[level], shapes[level + 1]
+            ev.append(kern["analysis_rows"](q, (nw, hh), None, a[level], hh, ww, mean if level == 0 else zeros,
+                                            tmp, nw, h1))
+            ev.append(kern["analysis_cols"](q, (nw, nh), None, tmp, hh, nw, a[level + 1], nh, h1))
+        top = len(shapes) - 1
+        th, tw = shapes[top]
+        ev.append(kern["synthesis"](q, (tw, th), None, a[top], th, tw, mean if top == 0 else zeros,
+                                    a[top], 1, 1, 0, h2, g_at(top), zeros, s[top]))
+        for level in range(top - 1, -1, -1):
+            (hh, ww), (ch, cw) = shapes[level], shapes[level + 1]
+            level_mean = mean if level == 0 else zeros
+            shift = zeros
+            if level == 0:
+                ev.append(kern["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, s[1], ch, cw, h2,
+                                            g_at(0), offset))
+                shift = offset
+            ev.append(kern["synthesis"](q, (ww, hh), None, a[level], hh, ww, level_mean, s[level + 1], ch, cw,
+                                        1, h2, g_at(level), shift, s[level]))
+        out = np.empty_like(lap)
+        down = cl.enqueue_copy(q, out, s[0], is_blocking=False)
+        times = {"device_ms": event_ms(*ev), "transfer_ms": event_ms(up, down)}
+        if top == 0:   # at most TOP samples a side: one level, its ring mean taken here
+            out -= ring_mean(out).astype(np.float32)
+        return out, times

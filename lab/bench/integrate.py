@@ -8,9 +8,10 @@ Canvases (RGB float32, zero on their border ring, as the spreadlet runtime's are
   out like the demo's shallow depth of field (:func:`runtime_cl.psf.synthetic.defocus_scene`,
   largest CoC 84 px as the demo's; exact Laplacians of 1 px soft-rimmed discs,
   :func:`runtime_cl.psf.synthetic.disc_database`), on its padded canvas (1024 + 2 pad, FFT-friendly);
-- ``random_1024`` and ``random_4096``: sparse random PSF sums (:func:`random_canvas`: soft discs of
-  log-uniform radii 1 ... n/12, half of them Gaussian-blurred, exponential intensities per
-  channel) and their 5-point Laplacian.
+- ``random_1024`` and ``random_4096``: sparse random PSF sums on the padded canvas of a 1024^2 and
+  a 4096^2 image (:func:`runtime_cl.psf.synthetic.psf_sum_image`: soft-rimmed discs of
+  log-uniform radii 1 ... n/12, rims 1-8 px, exponential intensities per channel) and their
+  5-point Laplacian.
 
 Error of an integrator on a canvas: per pixel and channel ``|out - exact| / max|exact|`` (the
 channel's largest absolute value), its mean and max over all pixels and channels. ``exact`` is
@@ -45,27 +46,14 @@ def relative_error(out: np.ndarray, exact: np.ndarray) -> dict:
     return {"mean": float(e.mean()), "max": float(e.max())}
 
 
-def random_canvas(n: int, seed: int, discs: int | None = None, channels: int = 3):
-    """A sparse random PSF sum on an (n, n, channels) canvas, zero on a border of n/12 + 8 px,
-    and its 5-point Laplacian (float32). Returns ``(laplacian, image)``."""
-    from scipy.ndimage import gaussian_filter
-
+def random_canvas(n: int, seed: int, channels: int = 3):
+    """A sparse random PSF sum on an (n, n, channels) canvas, zero near its border
+    (:func:`runtime_cl.psf.synthetic.psf_sum_image`), and its 5-point Laplacian (float32).
+    Returns ``(laplacian, image)``."""
     from runtime_cl.integrate.poisson import laplacian5
+    from runtime_cl.psf.synthetic import psf_sum_image
 
-    rng = np.random.default_rng(seed)
-    discs = discs or max(8, n // 16)
-    r_max = n / 12
-    border = int(r_max) + 8
-    image = np.zeros((n, n, channels), np.float32)
-    for k in range(discs):
-        r = float(np.exp(rng.uniform(0.0, np.log(r_max))))
-        cx, cy = rng.uniform(border + r, n - border - r, 2)
-        x0, x1, y0, y1 = int(cx - r) - 7, int(cx + r) + 8, int(cy - r) - 7, int(cy + r) + 8
-        yy, xx = np.mgrid[y0:y1, x0:x1] + 0.5
-        disc = np.clip(r + 0.5 - np.hypot(xx - cx, yy - cy), 0.0, 1.0)
-        if k % 2:
-            disc = gaussian_filter(disc, rng.uniform(0.5, 2.0), mode="constant")
-        image[y0:y1, x0:x1] += (disc[..., None] * rng.exponential(1.0, channels)).astype(np.float32)
+    image = psf_sum_image(n, seed, channels=channels)
     return laplacian5(image).astype(np.float32), image
 
 

@@ -69,16 +69,16 @@ def training_set(seed: int) -> list[np.ndarray]:
     return sharp + soft
 
 
-def basis_columns(lap: np.ndarray, h1, h2, radius: int, own_levels: int) -> np.ndarray:
+def basis_columns(lap: np.ndarray, h1, h2, radii) -> np.ndarray:
     """(pixels, values): the pyramid's output for each basis kernel of each ``g`` alone, border
-    ring mean removed. ``g`` number ``k < own_levels`` serves level ``k``, the last one every
-    level from ``own_levels`` on."""
+    ring mean removed. ``g`` number ``k`` (of radius ``radii[k]``) serves level ``k``, the last
+    one every level from ``len(radii) - 1`` on."""
     a = analysis(lap - lap.mean(), h1)
-    basis = symmetric_basis(radius)
+    own_levels = len(radii) - 1
     cols = []
     for group in range(own_levels + 1):
         levels = [group] if group < own_levels else list(range(own_levels, len(a)))
-        for b in basis:
+        for b in symmetric_basis(radii[group]):
             s = None
             for level in range(len(a) - 1, -1, -1):
                 if s is not None:
@@ -97,12 +97,12 @@ def _taps(p, n_taps: int):
     return h1, h2
 
 
-def _system(p, images, n_taps, radius, own_levels):
+def _system(p, images, n_taps, radii):
     h1, h2 = _taps(p, n_taps)
     rows, rhs = [], []
     for f in images:
         s = 1.0 / np.abs(f).max()
-        rows.append(basis_columns(laplacian5(f), h1, h2, radius, own_levels) * s)
+        rows.append(basis_columns(laplacian5(f), h1, h2, radii) * s)
         rhs.append(f.ravel() * s)
     return np.concatenate(rows), np.concatenate(rhs)
 
@@ -122,9 +122,11 @@ def _norm(e: np.ndarray, power: float) -> float:
     return float(np.mean(np.abs(e) ** power) ** (1 / power))
 
 
-def fit(images, n_taps: int = 7, radius: int = 1, own_levels: int = 2, evaluations: int = 300,
+def fit(images, n_taps: int = 7, radii=(2, 1, 1), evaluations: int = 300,
         power: float = 8.0, rounds: int = 6, start=None) -> tuple[PyramidKernels, dict]:
     """Fit the kernels on ``images`` (zero-border, (n, n)); returns them and the fit's record.
+
+    ``radii``: of each ``g``, finest level first, the last one serving every coarser level.
 
     The taps minimise the ``power``-norm of the relative error over all pixels (8: close to
     the largest error, with the mean still in view), the ``g`` values are that norm's
@@ -134,23 +136,27 @@ def fit(images, n_taps: int = 7, radius: int = 1, own_levels: int = 2, evaluatio
     from scipy.optimize import minimize
 
     def objective(p):
-        A, b = _system(p, images, n_taps, radius, own_levels)
+        A, b = _system(p, images, n_taps, radii)
         return _norm(A @ _solve(A, b, power, rounds) - b, power)
 
     r = n_taps // 2
     p0 = (np.r_[np.linspace(0.05, 0.7, r), np.linspace(0.03, 0.32, r), 0.42] if start is None
           else np.asarray(start, np.float64))
     begin = time.perf_counter()
-    res = minimize(objective, p0, method="Nelder-Mead",
-                   options={"maxfev": evaluations, "xatol": 1e-6, "fatol": 1e-9})
-    A, b = _system(res.x, images, n_taps, radius, own_levels)
+    if evaluations > 0:
+        res = minimize(objective, p0, method="Nelder-Mead",
+                       options={"maxfev": evaluations, "xatol": 1e-6, "fatol": 1e-9})
+        taps, nfev, best = res.x, int(res.nfev), float(res.fun)
+    else:   # keep the starting taps, fit the g values only
+        taps, nfev, best = p0, 1, objective(p0)
+    A, b = _system(taps, images, n_taps, radii)
     c = _solve(A, b, power, rounds)
-    h1, h2 = _taps(res.x, n_taps)
-    per = len(symmetric_basis(radius))
-    g = [list(map(float, c[k * per:(k + 1) * per])) for k in range(own_levels + 1)]
-    kernels = PyramidKernels(h1, h2, tuple(symmetric_kernel(v, radius) for v in g))
-    record = {"n_taps": n_taps, "g_radius": radius, "own_levels": own_levels, "power": power,
-              "irls_rounds": rounds, "evaluations": int(res.nfev), "objective": float(res.fun),
+    h1, h2 = _taps(taps, n_taps)
+    ends = np.cumsum([0] + [len(symmetric_basis(r)) for r in radii])
+    g = [list(map(float, c[i:j])) for i, j in zip(ends[:-1], ends[1:])]
+    kernels = PyramidKernels(h1, h2, tuple(symmetric_kernel(v, r) for v, r in zip(g, radii)))
+    record = {"n_taps": n_taps, "g_radii": list(radii), "power": power,
+              "irls_rounds": rounds, "evaluations": nfev, "objective": best, "start": [float(v) for v in p0],
               "seconds": round(time.perf_counter() - begin, 1), "g_values": g}
     return kernels, record
 
@@ -169,20 +175,22 @@ def relative_errors(images, kernels: PyramidKernels) -> list[dict]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m lab.pyramid_fit", description=__doc__.split("\n\n")[0])
     parser.add_argument("--taps", type=int, default=7, help="length of h1 and h2 (odd; default 7)")
-    parser.add_argument("--radius", type=int, default=1, help="radius of g (default 1: 3x3)")
-    parser.add_argument("--own-levels", type=int, default=2, help="fine levels with their own g (default 2)")
-    parser.add_argument("--evaluations", type=int, default=300, help="Nelder-Mead evaluations (default 300)")
+    parser.add_argument("--radii", type=int, nargs="+", default=[2, 1, 1],
+                        help="radius of each g, finest level first, the last serving every coarser level "
+                             "(default 2 1 1: 5x5 at level 0, 3x3 at level 1, 3x3 shared)")
+    parser.add_argument("--evaluations", type=int, default=300, help="Nelder-Mead evaluations (default 300; "
+                        "0 keeps the --start taps and fits the g values only)")
     parser.add_argument("--power", type=float, default=8.0, help="norm of the relative error minimised (default 8)")
     parser.add_argument("--start", type=float, nargs="+", help="initial taps: h1's outer half, h2's outer "
                         "half and centre (default smooth bumps)")
     parser.add_argument("--out", default=str(KERNELS_FILE), help="kernels file (default: the runtime's)")
     args = parser.parse_args(argv)
-    kernels, record = fit(training_set(1), args.taps, args.radius, args.own_levels, args.evaluations,
+    kernels, record = fit(training_set(1), args.taps, tuple(args.radii), args.evaluations,
                           args.power, start=args.start)
     record["train"] = relative_errors(training_set(1), kernels)
     record["check"] = relative_errors(training_set(7), kernels)
     data = {"format": FORMAT, "pad": PAD, "top": TOP, "h1": kernels.h1.tolist(), "h2": kernels.h2.tolist(),
-            "g_radius": args.radius, "g": record.pop("g_values"), "fit": record}
+            "g_radii": args.radii, "g": record.pop("g_values"), "fit": record}
     with atomic_path(args.out) as tmp:
         tmp.write_text(json.dumps(data, indent=1) + "\n")
     for name in ("train", "check"):

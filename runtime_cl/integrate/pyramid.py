@@ -24,6 +24,14 @@ from runtime_cl.integrate.registry import Integrator, register_integrator
 __all__ = ["PyramidIntegrator"]
 
 _I = np.int32
+_GROUP_X = 64   # work items per group along a row: PoCL loops (and vectorises) over them
+
+
+def _grid(width: int, height: int) -> tuple:
+    """(global, local) sizes of a 2-D launch over (width, height): explicit groups along rows, so
+    that a prime level width does not make PoCL run one-item groups; kernels skip the excess."""
+    lx = min(_GROUP_X, -(-width // 8) * 8)
+    return (-(-width // lx) * lx, height), (lx, 1)
 
 
 @register_integrator("pyramid")
@@ -44,29 +52,41 @@ class PyramidIntegrator(Integrator):
         super().__init__(device or get_device())
         self.kernels = kernels or load_kernels()
         self._programs: dict = {}
+        self._pending: list = []    # builds not warmed up yet
         self._buffers: dict = {}
         self._coefficients = None
 
-    def _program(self, channels: int):
+    def _program(self, channels: int, g_radius: int) -> dict:
+        """The kernels for ``channels`` and a ``g`` of ``g_radius`` (built once; -D constants)."""
         import pyopencl as cl
 
-        if channels not in self._programs:
+        key = (channels, g_radius)
+        if key not in self._programs:
             k = self.kernels
             options = [f"-DC={channels}", f"-DR1={len(k.h1) // 2}", f"-DR2={len(k.h2) // 2}",
-                       f"-DRG={k.g[0].shape[0] // 2}", f"-DPAD={PAD}"]
+                       f"-DRG={g_radius}", f"-DPAD={PAD}"]
             program, record = self.device.program(("integrate/pyramid.cl",), options)
             kernels = {n: cl.Kernel(program, n) for n in ("row_sums", "finish_mean", "analysis_rows",
                                                           "analysis_cols", "synthesis", "ring_mean")}
-            kernels["row_sums"].set_scalar_arg_dtypes([None, _I, None])
+            kernels["row_sums"].set_scalar_arg_dtypes([None, _I, _I, None])
             kernels["finish_mean"].set_scalar_arg_dtypes([None, _I, _I, None])
             kernels["analysis_rows"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None])
             kernels["analysis_cols"].set_scalar_arg_dtypes([None, _I, _I, None, _I, None])
             kernels["synthesis"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, _I, None, None,
                                                         None, None])
             kernels["ring_mean"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, None, None, None])
-            self._programs[channels] = kernels
-            self.device.warm_up(record, lambda: self(np.zeros((32, 32, channels), np.float32)))  # every kernel
-        return self._programs[channels]
+            self._programs[key] = kernels
+            self._pending.append(record)
+        return self._programs[key]
+
+    def _kernels(self, channels: int) -> list:
+        """Per ``g`` of the kernel set, its program's kernels; new builds are warmed up on a canvas
+        that runs every kernel (PoCL compiles each at its first launch)."""
+        kernels = [self._program(channels, g.shape[0] // 2) for g in self.kernels.g]
+        while self._pending:
+            record = self._pending.pop()
+            self.device.warm_up(record, lambda: self(np.zeros((32, 32, channels), np.float32)))
+        return kernels
 
     def _constants(self):
         import pyopencl as cl
@@ -105,32 +125,34 @@ class PyramidIntegrator(Integrator):
         if h < 3 or w < 3:
             raise InputError(f"laplacian: canvas {h}x{w} is too small, need at least 3x3")
         channels = 1 if lap.ndim == 2 else lap.shape[2]
-        kern = self._program(channels)
+        per_g = self._kernels(channels)
+        kern = per_g[0]
         h1, h2, gs = self._constants()
         shapes, a, s, zeros, (mean, offset), sums, tmp = self._level_buffers(h, w, channels)
         g_at = lambda level: gs[min(level, len(gs) - 1)]  # noqa: E731
+        synth = lambda level: per_g[min(level, len(per_g) - 1)]  # noqa: E731  (its g's radius)
         q = self.device.queue
         up = cl.enqueue_copy(q, a[0], lap, is_blocking=False)
-        ev = [kern["row_sums"](q, (h,), None, a[0], w, sums),
+        ev = [kern["row_sums"](q, (-(-h // 16) * 16,), (16,), a[0], h, w, sums),
               kern["finish_mean"](q, (channels,), None, sums, h, w, mean)]
         for level in range(len(shapes) - 1):
             (hh, ww), (nh, nw) = shapes[level], shapes[level + 1]
-            ev.append(kern["analysis_rows"](q, (nw, hh), None, a[level], hh, ww, mean if level == 0 else zeros,
+            ev.append(kern["analysis_rows"](q, *_grid(nw, hh), a[level], hh, ww, mean if level == 0 else zeros,
                                             tmp, nw, h1))
-            ev.append(kern["analysis_cols"](q, (nw, nh), None, tmp, hh, nw, a[level + 1], nh, h1))
+            ev.append(kern["analysis_cols"](q, *_grid(nw, nh), tmp, hh, nw, a[level + 1], nh, h1))
         top = len(shapes) - 1
         th, tw = shapes[top]
-        ev.append(kern["synthesis"](q, (tw, th), None, a[top], th, tw, mean if top == 0 else zeros,
+        ev.append(synth(top)["synthesis"](q, *_grid(tw, th), a[top], th, tw, mean if top == 0 else zeros,
                                     a[top], 1, 1, 0, h2, g_at(top), zeros, s[top]))
         for level in range(top - 1, -1, -1):
             (hh, ww), (ch, cw) = shapes[level], shapes[level + 1]
             level_mean = mean if level == 0 else zeros
             shift = zeros
             if level == 0:
-                ev.append(kern["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, s[1], ch, cw, h2,
+                ev.append(synth(0)["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, s[1], ch, cw, h2,
                                             g_at(0), offset))
                 shift = offset
-            ev.append(kern["synthesis"](q, (ww, hh), None, a[level], hh, ww, level_mean, s[level + 1], ch, cw,
+            ev.append(synth(level)["synthesis"](q, *_grid(ww, hh), a[level], hh, ww, level_mean, s[level + 1], ch, cw,
                                         1, h2, g_at(level), shift, s[level]))
         out = np.empty_like(lap)
         down = cl.enqueue_copy(q, out, s[0], is_blocking=False)

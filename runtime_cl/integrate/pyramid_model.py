@@ -9,8 +9,8 @@ The operator (Farbman et al. 2011, section 3) on a Laplacian canvas ``a0`` (H, W
     image  = s[0] - mean of s[0] over the canvas's border ring
 
 ``h1`` and ``h2`` are separable, symmetric 1-D taps (the same at every level; ``h2`` carries the
-gain 4 of zero insertion); ``g[l]`` is a small 2-D kernel with the square's 8 symmetries, one per
-level for the finest levels and one shared by the rest (the Green's function of the 5-point
+gain 4 of zero insertion); ``g[l]`` is a small 2-D kernel with the square's 8 symmetries (its own
+size per kernel), one per level for the finest levels and one shared by the rest (the Green's function of the 5-point
 Laplacian differs from (1/2 pi) log r near its centre only; at coarser levels the log is
 scale-invariant, so one kernel serves them all). Each level is the previous one's
 ``n + 2 PAD`` padded samples halved (rounded up), so every coarse sample that a canvas pixel
@@ -87,9 +87,8 @@ def load_kernels(path: Path = KERNELS_FILE) -> PyramidKernels:
         raise InputError(f"{path}: kernels of format {data.get('format')}, pad {data.get('pad')}, top "
                          f"{data.get('top')}; this runtime needs {FORMAT}, {PAD}, {TOP}: refit them with "
                          "`python -m lab.pyramid_fit`")
-    r = int(data["g_radius"])
     return PyramidKernels(np.asarray(data["h1"], np.float64), np.asarray(data["h2"], np.float64),
-                          tuple(symmetric_kernel(v, r) for v in data["g"]))
+                          tuple(symmetric_kernel(v, int(r)) for v, r in zip(data["g"], data["g_radii"])))
 
 
 def level_shapes(h: int, w: int) -> list[tuple]:

@@ -14,9 +14,10 @@ inline float at(__global const float *a, int h, int w, int y, int x, int c, floa
 }
 
 // per row, the sum of each channel (the canvas mean: the exact solve ignores it)
-__kernel void row_sums(__global const float *a, int w, __global float *sums)
+__kernel void row_sums(__global const float *a, int h, int w, __global float *sums)
 {
     int y = get_global_id(0);
+    if (y >= h) return;
     float s[C];
     for (int c = 0; c < C; ++c) s[c] = 0.0f;
     for (int x = 0; x < w; ++x)

@@ -8,9 +8,11 @@ image is zero on its border ring is what the exact FFT solve computes: ``splatla
 measures how far apart they are and how much faster the pyramid is.
 
 Kernels (``kernels/integrate/pyramid.cl``), one launch per level and step, all on the device:
-the canvas mean (row sums, then their sum), the analysis levels, the synthesis from the
-coarsest level up, the mean of level 0's border ring (computed from level 1 before level 0 is
-written, so level 0 is written once, already shifted), then one download.
+the canvas mean (row sums, then their sum), the analysis levels (down the columns, then across
+the rows), the synthesis from the coarsest level up (up-sampling down the columns, then one
+kernel for the rest), the mean of level 0's border ring (computed from level 1 before level 0 is
+written, so level 0 is written once, already shifted), then one download. The row-wise kernels
+work on float4 runs of the interleaved channels, so they vectorise for any channel count.
 """
 from __future__ import annotations
 
@@ -66,15 +68,16 @@ class PyramidIntegrator(Integrator):
             options = [f"-DC={channels}", f"-DR1={len(k.h1) // 2}", f"-DR2={len(k.h2) // 2}",
                        f"-DRG={g_radius}", f"-DPAD={PAD}"]
             program, record = self.device.program(("integrate/pyramid.cl",), options)
-            kernels = {n: cl.Kernel(program, n) for n in ("row_sums", "finish_mean", "analysis_rows",
-                                                          "analysis_cols", "synthesis", "ring_mean")}
+            kernels = {n: cl.Kernel(program, n)
+                       for n in ("row_sums", "finish_mean", "down_v", "down_h", "up_v", "synth", "ring_mean")}
             kernels["row_sums"].set_scalar_arg_dtypes([None, _I, _I, None])
             kernels["finish_mean"].set_scalar_arg_dtypes([None, _I, _I, None])
-            kernels["analysis_rows"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None])
-            kernels["analysis_cols"].set_scalar_arg_dtypes([None, _I, _I, None, _I, None])
-            kernels["synthesis"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, _I, None, None,
-                                                        None, None])
-            kernels["ring_mean"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, None, None, None])
+            kernels["down_v"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None])
+            kernels["down_h"].set_scalar_arg_dtypes([None, _I, _I, None, _I, None])
+            kernels["up_v"].set_scalar_arg_dtypes([None, _I, None, _I, None])
+            kernels["synth"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, None, None, np.float32,
+                                                    None, None])
+            kernels["ring_mean"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None, None, None])
             self._programs[key] = kernels
             self._pending.append(record)
         return self._programs[key]
@@ -89,30 +92,36 @@ class PyramidIntegrator(Integrator):
         return kernels
 
     def _constants(self):
+        """Device copies of h1, h2 with a 0 appended (the kernels' h2p) and every g; g's sums."""
         import pyopencl as cl
 
         if self._coefficients is None:
             flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
             ctx, k = self.device.context, self.kernels
             buf = lambda a: cl.Buffer(ctx, flags, hostbuf=np.ascontiguousarray(a, np.float32))  # noqa: E731
-            self._coefficients = (buf(k.h1), buf(k.h2), [buf(g) for g in k.g])
+            self._coefficients = (buf(k.h1), buf(np.r_[k.h2, 0.0]), [buf(g) for g in k.g],
+                                  [np.float32(np.float32(g).sum()) for g in k.g])
         return self._coefficients
 
     def _level_buffers(self, h: int, w: int, channels: int):
-        """Per level: the analysis ``a`` (level 0: the uploaded canvas) and the synthesis ``s``."""
+        """Per level the analysis ``a`` (level 0: the uploaded canvas) and the synthesis ``s``;
+        scratch ``t`` (analysis down the columns) and ``u`` (synthesis down the columns)."""
         import pyopencl as cl
 
         key = (h, w, channels)
         if key not in self._buffers:
             ctx, mf = self.device.context, cl.mem_flags
             shapes = level_shapes(h, w)
-            a = [cl.Buffer(ctx, mf.READ_WRITE, max(4, hh * ww * channels * 4)) for hh, ww in shapes]
-            s = [cl.Buffer(ctx, mf.READ_WRITE, max(4, hh * ww * channels * 4)) for hh, ww in shapes]
+            new = lambda floats: cl.Buffer(ctx, mf.READ_WRITE, 4 * (floats + 4))  # noqa: E731  (+4: float4 tails)
+            a = [new(hh * ww * channels) for hh, ww in shapes]
+            s = [new(hh * ww * channels) for hh, ww in shapes]
+            pairs = list(zip(shapes, shapes[1:]))
+            t = new(max([nh * ww * channels for (_, ww), (nh, _) in pairs], default=1))
+            u = new(max([hh * cw * channels for (hh, _), (_, cw) in pairs], default=1))
             zeros = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.zeros(channels, np.float32))
             small = [cl.Buffer(ctx, mf.READ_WRITE, channels * 4) for _ in range(2)]   # mean, offset
             sums = cl.Buffer(ctx, mf.READ_WRITE, h * channels * 4)
-            tmp = cl.Buffer(ctx, mf.READ_WRITE, max(4, h * shapes[min(1, len(shapes) - 1)][1] * channels * 4))
-            self._buffers = {key: (shapes, a, s, zeros, small, sums, tmp)}   # one canvas size at a time
+            self._buffers = {key: (shapes, a, s, t, u, zeros, small, sums)}   # one canvas size at a time
         return self._buffers[key]
 
     def __call__(self, laplacian) -> tuple:
@@ -127,33 +136,32 @@ class PyramidIntegrator(Integrator):
         channels = 1 if lap.ndim == 2 else lap.shape[2]
         per_g = self._kernels(channels)
         kern = per_g[0]
-        h1, h2, gs = self._constants()
-        shapes, a, s, zeros, (mean, offset), sums, tmp = self._level_buffers(h, w, channels)
-        g_at = lambda level: gs[min(level, len(gs) - 1)]  # noqa: E731
-        synth = lambda level: per_g[min(level, len(per_g) - 1)]  # noqa: E731  (its g's radius)
+        h1, h2p, gs, g_sums = self._constants()
+        shapes, a, s, t, u, zeros, (mean, offset), sums = self._level_buffers(h, w, channels)
+        at = lambda level, items: items[min(level, len(items) - 1)]  # noqa: E731  (the last g serves the rest)
+        rows = lambda n_floats, n_rows: _grid(-(-n_floats // 4), n_rows)  # noqa: E731  (float4 work items)
         q = self.device.queue
         up = cl.enqueue_copy(q, a[0], lap, is_blocking=False)
         ev = [kern["row_sums"](q, (-(-h // 16) * 16,), (16,), a[0], h, w, sums),
               kern["finish_mean"](q, (channels,), None, sums, h, w, mean)]
         for level in range(len(shapes) - 1):
             (hh, ww), (nh, nw) = shapes[level], shapes[level + 1]
-            ev.append(kern["analysis_rows"](q, *_grid(nw, hh), a[level], hh, ww, mean if level == 0 else zeros,
-                                            tmp, nw, h1))
-            ev.append(kern["analysis_cols"](q, *_grid(nw, nh), tmp, hh, nw, a[level + 1], nh, h1))
+            ev.append(kern["down_v"](q, *rows(ww * channels, nh), a[level], hh, ww,
+                                     mean if level == 0 else zeros, t, nh, h1))
+            ev.append(kern["down_h"](q, *_grid(nw, nh), t, nh, ww, a[level + 1], nw, h1))
         top = len(shapes) - 1
         th, tw = shapes[top]
-        ev.append(synth(top)["synthesis"](q, *_grid(tw, th), a[top], th, tw, mean if top == 0 else zeros,
-                                    a[top], 1, 1, 0, h2, g_at(top), zeros, s[top]))
+        ev.append(at(top, per_g)["synth"](q, *rows(tw * channels, th), a[top], th, tw, mean if top == 0 else zeros,
+                                          a[top], 1, 0, h2p, at(top, gs), at(top, g_sums), zeros, s[top]))
         for level in range(top - 1, -1, -1):
             (hh, ww), (ch, cw) = shapes[level], shapes[level + 1]
-            level_mean = mean if level == 0 else zeros
-            shift = zeros
-            if level == 0:
-                ev.append(synth(0)["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, s[1], ch, cw, h2,
-                                            g_at(0), offset))
-                shift = offset
-            ev.append(synth(level)["synthesis"](q, *_grid(ww, hh), a[level], hh, ww, level_mean, s[level + 1], ch, cw,
-                                        1, h2, g_at(level), shift, s[level]))
+            ev.append(kern["up_v"](q, *rows(cw * channels, hh), s[level + 1], cw, u, hh, h2p))
+            if level == 0:   # the ring's mean first, so level 0 is written once, shifted
+                ev.append(at(0, per_g)["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, u, cw, h2p,
+                                                    at(0, gs), offset))
+            ev.append(at(level, per_g)["synth"](q, *rows(ww * channels, hh), a[level], hh, ww,
+                                                mean if level == 0 else zeros, u, cw, 1, h2p, at(level, gs),
+                                                at(level, g_sums), offset if level == 0 else zeros, s[level]))
         out = np.empty_like(lap)
         down = cl.enqueue_copy(q, out, s[0], is_blocking=False)
         times = {"device_ms": event_ms(*ev), "transfer_ms": event_ms(up, down)}

@@ -1,16 +1,29 @@
 // Convolution pyramid (Farbman et al. 2011) for the free-space Poisson solve; the operator is
-// runtime_cl/integrate/pyramid_model.py's. Images are (rows, cols, C) float32, C interleaved.
+// runtime_cl/integrate/pyramid_model.py's. Images are (rows, cols, C) float32, C interleaved, so
+// a row is w C floats and a shift by dx pixels is a shift by C dx floats for every channel: the
+// row-wise kernels work on float4 runs of a row (any C), the rest per pixel.
 // -D C=channels, R1 / R2 = radius of the separable taps h1 / h2, RG = radius of the 2-D g,
 // PAD = zero samples added on each side of a level before it is filtered and halved.
-// Each kernel takes a fast path without bounds checks when its whole stencil is inside the
-// arrays (most work items); `guard` is a constant at every call, so inlining drops the checks.
+// Buffers hold 4 spare floats at their end, so a float4 load at a row's last floats stays inside.
+// h2p is h2 with one 0 appended: the zero-insertion taps of a parity p are h2p[2t + p], t <= R2.
 
-// a[y][x][c] - m of a level of size (h, w), zero outside (m: level 0's canvas mean, else 0)
-inline float at(__global const float *a, int h, int w, int y, int x, int c, float m, int guard)
+inline float4 load4(__global const float *a, int i) { return vload4(0, a + i); }
+
+// (m[f % C], ..., m[(f + 3) % C]): the canvas mean of the channels of floats f .. f + 3
+inline float4 lanes(__global const float *m, int f)
 {
-    if (guard && (y < 0 || y >= h || x < 0 || x >= w))
-        return 0.0f;
-    return a[(y * w + x) * C + c] - m;
+    return (float4)(m[f % C], m[(f + 1) % C], m[(f + 2) % C], m[(f + 3) % C]);
+}
+
+// store v at floats i .. i + 3 of a row of n floats starting at `row`, only those inside the row
+inline void store4(__global float *out, int row, int i, int n, float4 v)
+{
+    if (i + 4 <= n) {
+        vstore4(v, 0, out + row + i);
+    } else {
+        float t[4] = {v.s0, v.s1, v.s2, v.s3};
+        for (int k = 0; i + k < n; ++k) out[row + i + k] = t[k];
+    }
 }
 
 // per row, the sum of each channel (the canvas mean: the exact solve ignores it)
@@ -34,118 +47,129 @@ __kernel void finish_mean(__global const float *sums, int h, int w, __global flo
     mean[c] = s / ((float)h * (float)w);
 }
 
-inline void rows_at(__global const float *a, int h, int w, __global const float *mean,
-                    __global float *tmp, int nw, __constant float *h1, int y, int i, int guard)
+// analysis, down the columns: t[j][.] = sum_k h1[k] (a[2j + k - R1 - PAD][.] - mean), rows outside
+// the level being zero; t is nh x w. One work item per 4 floats of a row.
+__kernel void down_v(__global const float *a, int h, int w, __global const float *mean,
+                     __global float *t, int nh, __constant float *h1)
 {
-    int x0 = 2 * i - R1 - PAD;
-    for (int c = 0; c < C; ++c) {
-        float s = 0.0f;
-        for (int k = 0; k <= 2 * R1; ++k)
-            s += h1[k] * at(a, h, w, y, x0 + k, c, mean[c], guard);
-        tmp[(y * nw + i) * C + c] = s;
-    }
-}
-
-// analysis, across: tmp[y][i] = sum_k h1[k] a[y][2i + k - R1 - PAD]   (tmp is h x nw)
-__kernel void analysis_rows(__global const float *a, int h, int w, __global const float *mean,
-                            __global float *tmp, int nw, __constant float *h1)
-{
-    int i = get_global_id(0), y = get_global_id(1);
-    if (i >= nw || y >= h) return;
-    int x0 = 2 * i - R1 - PAD;
-    if (x0 >= 0 && x0 + 2 * R1 < w)
-        rows_at(a, h, w, mean, tmp, nw, h1, y, i, 0);
-    else
-        rows_at(a, h, w, mean, tmp, nw, h1, y, i, 1);
-}
-
-inline void cols_at(__global const float *tmp, int h, int nw, __global float *next,
-                    __constant float *h1, int j, int i, int guard)
-{
+    int f = 4 * get_global_id(0), j = get_global_id(1), n = w * C;
+    if (f >= n || j >= nh) return;
+    float4 m = lanes(mean, f), acc = (float4)(0.0f);
     int y0 = 2 * j - R1 - PAD;
+    for (int k = 0; k <= 2 * R1; ++k) {
+        int y = y0 + k;
+        if (y >= 0 && y < h)
+            acc += h1[k] * (load4(a, y * n + f) - m);
+    }
+    store4(t, j * n, f, n, acc);
+}
+
+inline void across_at(__global const float *t, int nh, int w, __global float *next, int nw,
+                      __constant float *h1, int j, int i, int guard)
+{
+    int x0 = 2 * i - R1 - PAD;
     for (int c = 0; c < C; ++c) {
         float s = 0.0f;
-        for (int k = 0; k <= 2 * R1; ++k)
-            s += h1[k] * at(tmp, h, nw, y0 + k, i, c, 0.0f, guard);
+        for (int k = 0; k <= 2 * R1; ++k) {
+            int x = x0 + k;
+            if (!guard || (x >= 0 && x < w))
+                s += h1[k] * t[(j * w + x) * C + c];
+        }
         next[(j * nw + i) * C + c] = s;
     }
 }
 
-// analysis, down: next[j][i] = sum_k h1[k] tmp[2j + k - R1 - PAD][i]   (next is nh x nw)
-__kernel void analysis_cols(__global const float *tmp, int h, int nw, __global float *next, int nh,
-                            __constant float *h1)
+// analysis, across the rows: next[j][i] = sum_k h1[k] t[j][2i + k - R1 - PAD] (next is nh x nw)
+__kernel void down_h(__global const float *t, int nh, int w, __global float *next, int nw,
+                     __constant float *h1)
 {
     int i = get_global_id(0), j = get_global_id(1);
     if (i >= nw || j >= nh) return;
-    int y0 = 2 * j - R1 - PAD;
-    if (y0 >= 0 && y0 + 2 * R1 < h)
-        cols_at(tmp, h, nw, next, h1, j, i, 0);
+    int x0 = 2 * i - R1 - PAD;
+    if (x0 >= 0 && x0 + 2 * R1 < w)
+        across_at(t, nh, w, next, nw, h1, j, i, 0);
     else
-        cols_at(tmp, h, nw, next, h1, j, i, 1);
+        across_at(t, nh, w, next, nw, h1, j, i, 1);
 }
 
-// s[y][x][c] = (h2 * up(coarse))[y + PAD][x + PAD] + (g * a)[y][x]; no coarse term at the top
-inline float synth_at(__global const float *a, int h, int w, float m,
-                      __global const float *coarse, int ch, int cw, int has_coarse,
-                      __constant float *h2, __constant float *g, int y, int x, int c, int guard)
+// synthesis, down the columns: u[y][.] = (h2 * up(s))[y + PAD] along y, u is h x cw. Every tap
+// lands inside s (its level has PAD >= R2 samples more on each side), so nothing is checked.
+__kernel void up_v(__global const float *s, int cw, __global float *u, int h, __constant float *h2p)
 {
+    int f = 4 * get_global_id(0), y = get_global_id(1), n = cw * C;
+    if (f >= n || y >= h) return;
+    int uy = y + PAD - R2, p = uy & 1, base = (uy + p) >> 1;
+    float4 acc = (float4)(0.0f);
+    for (int k = 0; k <= R2; ++k)
+        acc += h2p[2 * k + p] * load4(s, (base + k) * n + f);
+    store4(u, y * n, f, n, acc);
+}
+
+// (h2 * up(s))[y + PAD][x + PAD] for channel c from the column-upsampled u (h x cw): the taps
+// along x; all inside u
+inline float across_up(__global const float *u, int cw, __constant float *h2p, int y, int x, int c)
+{
+    int ux = x + PAD - R2, p = ux & 1, base = (ux + p) >> 1;
     float s = 0.0f;
-    for (int dy = -RG; dy <= RG; ++dy)
-        for (int dx = -RG; dx <= RG; ++dx)
-            s += g[(dy + RG) * (2 * RG + 1) + dx + RG] * at(a, h, w, y + dy, x + dx, c, m, guard);
-    if (has_coarse) {
-        int uy = y + PAD - R2, ux = x + PAD - R2;
-        // only even up-sampled positions hold coarse samples: start the taps on the first one
-        for (int ky = (uy & 1); ky <= 2 * R2; ky += 2) {
-            float row = 0.0f;
-            int cy = (uy + ky) >> 1;
-            for (int kx = (ux & 1); kx <= 2 * R2; kx += 2)
-                row += h2[kx] * at(coarse, ch, cw, cy, (ux + kx) >> 1, c, 0.0f, guard);
-            s += h2[ky] * row;
-        }
-    }
+    for (int k = 0; k <= R2; ++k)
+        s += h2p[2 * k + p] * u[(y * cw + base + k) * C + c];
     return s;
 }
 
-// whether synth_at(y, x) reads only samples inside both arrays
-inline int synth_inside(int h, int w, int ch, int cw, int y, int x)
+// one output sample of a level: (g * (a - m))[y][x] + the coarse term (if has_coarse), checked
+inline float synth_px(__global const float *a, int h, int w, float m, __global const float *u, int cw,
+                      int has_coarse, __constant float *h2p, __constant float *g, int y, int x, int c)
 {
-    return y >= RG && y + RG < h && x >= RG && x + RG < w
-           && y + PAD - R2 >= 0 && ((y + PAD + R2) >> 1) < ch
-           && x + PAD - R2 >= 0 && ((x + PAD + R2) >> 1) < cw;
+    float s = 0.0f;
+    for (int dy = -RG; dy <= RG; ++dy) {
+        if (y + dy < 0 || y + dy >= h) continue;
+        for (int dx = -RG; dx <= RG; ++dx)
+            if (x + dx >= 0 && x + dx < w)
+                s += g[(dy + RG) * (2 * RG + 1) + dx + RG] * (a[((y + dy) * w + x + dx) * C + c] - m);
+    }
+    return has_coarse ? s + across_up(u, cw, h2p, y, x, c) : s;
 }
 
-// one level of the synthesis, minus offset[c] (level 0: its border ring's mean; else zeros)
-__kernel void synthesis(__global const float *a, int h, int w, __global const float *mean,
-                        __global const float *coarse, int ch, int cw, int has_coarse,
-                        __constant float *h2, __constant float *g, __global const float *offset,
-                        __global float *out)
+// one level of the synthesis minus offset[c] (level 0: its border ring's mean; else zeros):
+// out = g * (a - mean) + h2 * up(coarse), the latter from u = up_v(coarse). One work item per
+// 4 floats of a row; those whose g taps all fall inside the level take the unchecked path.
+__kernel void synth(__global const float *a, int h, int w, __global const float *mean,
+                    __global const float *u, int cw, int has_coarse, __constant float *h2p,
+                    __constant float *g, float g_sum, __global const float *offset, __global float *out)
 {
-    int x = get_global_id(0), y = get_global_id(1);
-    if (x >= w || y >= h) return;
-    if (synth_inside(h, w, ch, cw, y, x)) {
-        for (int c = 0; c < C; ++c)
-            out[(y * w + x) * C + c] = synth_at(a, h, w, mean[c], coarse, ch, cw, has_coarse, h2, g,
-                                                y, x, c, 0) - offset[c];
+    int f = 4 * get_global_id(0), y = get_global_id(1), n = w * C;
+    if (f >= n || y >= h) return;
+    float r[4];
+    if (y >= RG && y + RG < h && f >= C * RG && f + 4 + C * RG <= n) {
+        float4 acc = -g_sum * lanes(mean, f);
+        for (int dy = -RG; dy <= RG; ++dy)
+            for (int dx = -RG; dx <= RG; ++dx)
+                acc += g[(dy + RG) * (2 * RG + 1) + dx + RG] * load4(a, (y + dy) * n + f + C * dx);
+        r[0] = acc.s0; r[1] = acc.s1; r[2] = acc.s2; r[3] = acc.s3;
+        for (int k = 0; k < 4; ++k) {
+            int x = (f + k) / C, c = f + k - x * C;
+            if (has_coarse) r[k] += across_up(u, cw, h2p, y, x, c);
+            r[k] -= offset[c];
+        }
     } else {
-        for (int c = 0; c < C; ++c)
-            out[(y * w + x) * C + c] = synth_at(a, h, w, mean[c], coarse, ch, cw, has_coarse, h2, g,
-                                                y, x, c, 1) - offset[c];
+        for (int k = 0; k < 4 && f + k < n; ++k) {
+            int x = (f + k) / C, c = f + k - x * C;
+            r[k] = synth_px(a, h, w, mean[c], u, cw, has_coarse, h2p, g, y, x, c) - offset[c];
+        }
     }
+    store4(out, y * n, f, n, (float4)(r[0], r[1], r[2], r[3]));
 }
 
 // offset[c] = mean of level 0's synthesis over the canvas's border ring (one work item per channel)
 __kernel void ring_mean(__global const float *a, int h, int w, __global const float *mean,
-                        __global const float *coarse, int ch, int cw,
-                        __constant float *h2, __constant float *g, __global float *offset)
+                        __global const float *u, int cw, __constant float *h2p, __constant float *g,
+                        __global float *offset)
 {
     int c = get_global_id(0);
     float m = mean[c], s = 0.0f;
     for (int x = 0; x < w; ++x)
-        s += synth_at(a, h, w, m, coarse, ch, cw, 1, h2, g, 0, x, c, 1)
-             + synth_at(a, h, w, m, coarse, ch, cw, 1, h2, g, h - 1, x, c, 1);
+        s += synth_px(a, h, w, m, u, cw, 1, h2p, g, 0, x, c) + synth_px(a, h, w, m, u, cw, 1, h2p, g, h - 1, x, c);
     for (int y = 1; y < h - 1; ++y)
-        s += synth_at(a, h, w, m, coarse, ch, cw, 1, h2, g, y, 0, c, 1)
-             + synth_at(a, h, w, m, coarse, ch, cw, 1, h2, g, y, w - 1, c, 1);
+        s += synth_px(a, h, w, m, u, cw, 1, h2p, g, y, 0, c) + synth_px(a, h, w, m, u, cw, 1, h2p, g, y, w - 1, c);
     offset[c] = s / (float)(2 * w + 2 * (h - 2));
 }

@@ -7,7 +7,8 @@ Canvases (RGB float32, zero on their border ring, as the spreadlet runtime's are
 - ``defocus_1024``: the Laplacian canvas the ``spreadlets`` method splats for a 1024^2 image laid
   out like the demo's shallow depth of field (:func:`runtime_cl.psf.synthetic.defocus_scene`,
   largest CoC 84 px as the demo's; exact Laplacians of 1 px soft-rimmed discs,
-  :func:`runtime_cl.psf.synthetic.disc_database`), on its padded canvas (1024 + 2 pad, FFT-friendly);
+  :func:`runtime_cl.psf.synthetic.disc_database`, discs under 4 px on the dense fast track), on
+  its padded canvas (1024 + 2 pad, FFT-friendly);
 - ``random_1024`` and ``random_4096``: sparse random PSF sums on the padded canvas of a 1024^2 and
   a 4096^2 image (:func:`runtime_cl.psf.synthetic.psf_sum_image`: soft-rimmed discs of
   log-uniform radii 1 ... n/12, rims 1-8 px, exponential intensities per channel) and their
@@ -68,7 +69,9 @@ def defocus_canvas(n: int = 1024, r_max: float = 84.0, seed: int = 0, device=Non
     from runtime_cl.spreadlets.splat import TileSplatter
 
     device = device or get_device()
-    db = disc_database(r_max, samples=32, edge=1.0)
+    # discs under 4 px take the dense fast track, as a real database's small PSFs do (a disc's
+    # Laplacian has ~12 r points against its pi r^2: sparse pays from r ~ 4)
+    db = disc_database(r_max, samples=32, edge=1.0, fast_track_below=4.0)
     colour, coords = defocus_scene(n, n, r_max, 3, seed)
     splatter = TileSplatter(DeviceDatabase(db, device), 3, dense_all=False)
     flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR

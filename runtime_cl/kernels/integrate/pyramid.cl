@@ -7,7 +7,12 @@
 // Buffers hold 4 spare floats at their end, so a float4 load at a row's last floats stays inside.
 // h2p is h2 with one 0 appended: the zero-insertion taps of a parity p are h2p[2t + p], t <= R2.
 
-inline float4 load4(__global const float *a, int i) { return vload4(0, a + i); }
+// four floats from a[i]: scalar loads that LLVM merges into one unaligned vector load (PoCL's
+// vload4 is a library call it never inlines, which costs more than the arithmetic here)
+inline float4 load4(__global const float *a, int i)
+{
+    return (float4)(a[i], a[i + 1], a[i + 2], a[i + 3]);
+}
 
 // (m[f % C], ..., m[(f + 3) % C]): the canvas mean of the channels of floats f .. f + 3
 inline float4 lanes(__global const float *m, int f)
@@ -19,7 +24,8 @@ inline float4 lanes(__global const float *m, int f)
 inline void store4(__global float *out, int row, int i, int n, float4 v)
 {
     if (i + 4 <= n) {
-        vstore4(v, 0, out + row + i);
+        __global float *o = out + row + i;
+        o[0] = v.s0; o[1] = v.s1; o[2] = v.s2; o[3] = v.s3;
     } else {
         float t[4] = {v.s0, v.s1, v.s2, v.s3};
         for (int k = 0; i + k < n; ++k) out[row + i + k] = t[k];

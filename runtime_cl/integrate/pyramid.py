@@ -26,7 +26,7 @@ the canvas mean (row sums, then their sum), the analysis levels (down the column
 the rows), the synthesis from the coarsest level up (up-sampling down the columns, then one
 kernel for the rest), the mean of level 0's border ring (computed from level 1 before level 0 is
 written, so level 0 is written once, already shifted), then one download. The row-wise kernels
-work on float4 runs of the interleaved channels, so they vectorise for any channel count.
+work on runs of 8 floats of the interleaved channels, so they vectorise for any channel count.
 """
 from __future__ import annotations
 
@@ -60,12 +60,17 @@ class PyramidIntegrator(Integrator):
         Default :func:`~runtime_cl.device.opencl.get_device`.
     kernels : PyramidKernels, optional
         Default: the fitted ones (:func:`~runtime_cl.integrate.pyramid_model.load_kernels`).
+    vector_width : {4, 8}
+        Floats per work item of the row-wise kernels (default 8).
     """
 
     summary = "convolution pyramid (Farbman et al. 2011) on the OpenCL device, fitted kernels"
 
-    def __init__(self, device=None, kernels: PyramidKernels | None = None):
+    def __init__(self, device=None, kernels: PyramidKernels | None = None, vector_width: int = 8):
+        if vector_width not in (4, 8):
+            raise InputError(f"vector_width = {vector_width!r}: must be 4 or 8")
         super().__init__(device or get_device())
+        self.vector_width = vector_width
         self.kernels = kernels or load_kernels()
         self._programs: dict = {}
         self._pending: list = []    # builds not warmed up yet
@@ -80,7 +85,7 @@ class PyramidIntegrator(Integrator):
         if key not in self._programs:
             k = self.kernels
             options = [f"-DC={channels}", f"-DR1={len(k.h1) // 2}", f"-DR2={len(k.h2) // 2}",
-                       f"-DRG={g_radius}", f"-DPAD={PAD}"]
+                       f"-DRG={g_radius}", f"-DPAD={PAD}", f"-DVW={self.vector_width}"]
             program, record = self.device.program(("integrate/pyramid.cl",), options)
             kernels = {n: cl.Kernel(program, n)
                        for n in ("row_sums", "finish_mean", "down_v", "down_h", "up_v", "synth", "ring_mean")}
@@ -126,7 +131,7 @@ class PyramidIntegrator(Integrator):
         if key not in self._buffers:
             ctx, mf = self.device.context, cl.mem_flags
             shapes = level_shapes(h, w)
-            new = lambda floats: cl.Buffer(ctx, mf.READ_WRITE, 4 * (floats + 4))  # noqa: E731  (+4: float4 tails)
+            new = lambda floats: cl.Buffer(ctx, mf.READ_WRITE, 4 * (floats + 8))  # noqa: E731  (+8: vector tails)
             a = [new(hh * ww * channels) for hh, ww in shapes]
             s = [new(hh * ww * channels) for hh, ww in shapes]
             pairs = list(zip(shapes, shapes[1:]))
@@ -153,7 +158,8 @@ class PyramidIntegrator(Integrator):
         h1, h2p, gs, g_sums = self._constants()
         shapes, a, s, t, u, zeros, (mean, offset), sums = self._level_buffers(h, w, channels)
         at = lambda level, items: items[min(level, len(items) - 1)]  # noqa: E731  (the last g serves the rest)
-        rows = lambda n_floats, n_rows: _grid(-(-n_floats // 4), n_rows)  # noqa: E731  (float4 work items)
+        vw = self.vector_width
+        rows = lambda n_floats, n_rows: _grid(-(-n_floats // vw), n_rows)  # noqa: E731  (vw floats per item)
         q = self.device.queue
         up = cl.enqueue_copy(q, a[0], lap, is_blocking=False)
         ev = [kern["row_sums"](q, (-(-h // 16) * 16,), (16,), a[0], h, w, sums),

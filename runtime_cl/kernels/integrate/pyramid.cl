@@ -1,34 +1,57 @@
 // Convolution pyramid (Farbman et al. 2011) for the free-space Poisson solve; the operator is
 // runtime_cl/integrate/pyramid_model.py's. Images are (rows, cols, C) float32, C interleaved, so
 // a row is w C floats and a shift by dx pixels is a shift by C dx floats for every channel: the
-// row-wise kernels work on float4 runs of a row (any C), the rest per pixel.
+// row-wise kernels work on runs of VW floats of a row (any C), the rest per pixel.
 // -D C=channels, R1 / R2 = radius of the separable taps h1 / h2, RG = radius of the 2-D g,
 // PAD = zero samples added on each side of a level before it is filtered and halved.
-// Buffers hold 4 spare floats at their end, so a float4 load at a row's last floats stays inside.
+// VW = floats per work item of the row-wise kernels (4 or 8). Buffers hold 8 spare floats at
+// their end, so a vector load at a row's last floats stays inside.
 // h2p is h2 with one 0 appended: the zero-insertion taps of a parity p are h2p[2t + p], t <= R2.
 
-// four floats from a[i]: scalar loads that LLVM merges into one unaligned vector load (PoCL's
-// vload4 is a library call it never inlines, which costs more than the arithmetic here)
-inline float4 load4(__global const float *a, int i)
+// VW (4 or 8) floats from a[i]: scalar loads that LLVM merges into one unaligned vector load
+// (PoCL's vloadn is a library call it never inlines, which costs more than the arithmetic here)
+#if VW == 8
+typedef float8 floatv;
+inline floatv loadv(__global const float *a, int i)
+{
+    return (float8)(a[i], a[i + 1], a[i + 2], a[i + 3], a[i + 4], a[i + 5], a[i + 6], a[i + 7]);
+}
+inline void to_array(floatv v, float *t)
+{
+    t[0] = v.s0; t[1] = v.s1; t[2] = v.s2; t[3] = v.s3; t[4] = v.s4; t[5] = v.s5; t[6] = v.s6; t[7] = v.s7;
+}
+#else
+typedef float4 floatv;
+inline floatv loadv(__global const float *a, int i)
 {
     return (float4)(a[i], a[i + 1], a[i + 2], a[i + 3]);
 }
-
-// (m[f % C], ..., m[(f + 3) % C]): the canvas mean of the channels of floats f .. f + 3
-inline float4 lanes(__global const float *m, int f)
+inline void to_array(floatv v, float *t)
 {
-    return (float4)(m[f % C], m[(f + 1) % C], m[(f + 2) % C], m[(f + 3) % C]);
+    t[0] = v.s0; t[1] = v.s1; t[2] = v.s2; t[3] = v.s3;
+}
+#endif
+
+// (m[f % C], ..., m[(f + VW - 1) % C]): the canvas mean of the channels of floats f .. f + VW - 1
+inline floatv lanes(__global const float *m, int f)
+{
+    float t[VW];
+    for (int k = 0; k < VW; ++k) t[k] = m[(f + k) % C];
+#if VW == 8
+    return (float8)(t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7]);
+#else
+    return (float4)(t[0], t[1], t[2], t[3]);
+#endif
 }
 
-// store v at floats i .. i + 3 of a row of n floats starting at `row`, only those inside the row
-inline void store4(__global float *out, int row, int i, int n, float4 v)
+// store floats i .. i + VW - 1 of a row of n floats starting at `row`, only those inside the row
+inline void storev(__global float *out, int row, int i, int n, const float *t)
 {
-    if (i + 4 <= n) {
-        __global float *o = out + row + i;
-        o[0] = v.s0; o[1] = v.s1; o[2] = v.s2; o[3] = v.s3;
+    __global float *o = out + row + i;
+    if (i + VW <= n) {
+        for (int k = 0; k < VW; ++k) o[k] = t[k];
     } else {
-        float t[4] = {v.s0, v.s1, v.s2, v.s3};
-        for (int k = 0; i + k < n; ++k) out[row + i + k] = t[k];
+        for (int k = 0; i + k < n; ++k) o[k] = t[k];
     }
 }
 
@@ -58,16 +81,18 @@ __kernel void finish_mean(__global const float *sums, int h, int w, __global flo
 __kernel void down_v(__global const float *a, int h, int w, __global const float *mean,
                      __global float *t, int nh, __constant float *h1)
 {
-    int f = 4 * get_global_id(0), j = get_global_id(1), n = w * C;
+    int f = VW * get_global_id(0), j = get_global_id(1), n = w * C;
     if (f >= n || j >= nh) return;
-    float4 m = lanes(mean, f), acc = (float4)(0.0f);
+    floatv m = lanes(mean, f), acc = (floatv)(0.0f);
     int y0 = 2 * j - R1 - PAD;
     for (int k = 0; k <= 2 * R1; ++k) {
         int y = y0 + k;
         if (y >= 0 && y < h)
-            acc += h1[k] * (load4(a, y * n + f) - m);
+            acc += h1[k] * (loadv(a, y * n + f) - m);
     }
-    store4(t, j * n, f, n, acc);
+    float r[VW];
+    to_array(acc, r);
+    storev(t, j * n, f, n, r);
 }
 
 inline void across_at(__global const float *t, int nh, int w, __global float *next, int nw,
@@ -102,13 +127,15 @@ __kernel void down_h(__global const float *t, int nh, int w, __global float *nex
 // lands inside s (its level has PAD >= R2 samples more on each side), so nothing is checked.
 __kernel void up_v(__global const float *s, int cw, __global float *u, int h, __constant float *h2p)
 {
-    int f = 4 * get_global_id(0), y = get_global_id(1), n = cw * C;
+    int f = VW * get_global_id(0), y = get_global_id(1), n = cw * C;
     if (f >= n || y >= h) return;
     int uy = y + PAD - R2, p = uy & 1, base = (uy + p) >> 1;
-    float4 acc = (float4)(0.0f);
+    floatv acc = (floatv)(0.0f);
     for (int k = 0; k <= R2; ++k)
-        acc += h2p[2 * k + p] * load4(s, (base + k) * n + f);
-    store4(u, y * n, f, n, acc);
+        acc += h2p[2 * k + p] * loadv(s, (base + k) * n + f);
+    float r[VW];
+    to_array(acc, r);
+    storev(u, y * n, f, n, r);
 }
 
 // (h2 * up(s))[y + PAD][x + PAD] for channel c from the column-upsampled u (h x cw): the taps
@@ -143,27 +170,27 @@ __kernel void synth(__global const float *a, int h, int w, __global const float 
                     __global const float *u, int cw, int has_coarse, __constant float *h2p,
                     __constant float *g, float g_sum, __global const float *offset, __global float *out)
 {
-    int f = 4 * get_global_id(0), y = get_global_id(1), n = w * C;
+    int f = VW * get_global_id(0), y = get_global_id(1), n = w * C;
     if (f >= n || y >= h) return;
-    float r[4];
-    if (y >= RG && y + RG < h && f >= C * RG && f + 4 + C * RG <= n) {
-        float4 acc = -g_sum * lanes(mean, f);
+    float r[VW];
+    if (y >= RG && y + RG < h && f >= C * RG && f + VW + C * RG <= n) {
+        floatv acc = -g_sum * lanes(mean, f);
         for (int dy = -RG; dy <= RG; ++dy)
             for (int dx = -RG; dx <= RG; ++dx)
-                acc += g[(dy + RG) * (2 * RG + 1) + dx + RG] * load4(a, (y + dy) * n + f + C * dx);
-        r[0] = acc.s0; r[1] = acc.s1; r[2] = acc.s2; r[3] = acc.s3;
-        for (int k = 0; k < 4; ++k) {
+                acc += g[(dy + RG) * (2 * RG + 1) + dx + RG] * loadv(a, (y + dy) * n + f + C * dx);
+        to_array(acc, r);
+        for (int k = 0; k < VW; ++k) {
             int x = (f + k) / C, c = f + k - x * C;
             if (has_coarse) r[k] += across_up(u, cw, h2p, y, x, c);
             r[k] -= offset[c];
         }
     } else {
-        for (int k = 0; k < 4 && f + k < n; ++k) {
+        for (int k = 0; k < VW && f + k < n; ++k) {
             int x = (f + k) / C, c = f + k - x * C;
             r[k] = synth_px(a, h, w, mean[c], u, cw, has_coarse, h2p, g, y, x, c) - offset[c];
         }
     }
-    store4(out, y * n, f, n, (float4)(r[0], r[1], r[2], r[3]));
+    storev(out, y * n, f, n, r);
 }
 
 // offset[c] = mean of level 0's synthesis over the canvas's border ring (one work item per channel)

@@ -7,7 +7,8 @@ Laplacian of any image that is zero on its border ring back to the image, i.e. a
 with the free-space Green's function of the 5-point Laplacian (which is what the exact FFT solve
 computes on such canvases). The training set is such images: sums of soft-edged discs of
 log-uniform radii from 1 px to a sixth of the canvas and exponential intensities, blurred or not
-(PSF-like), on canvases of 128^2 to 256^2 (:func:`training_set`); the truth is the image itself.
+(PSF-like), and whole bright frames with a zero border (:func:`frame_image`), on canvases of
+128^2 to 256^2 (:func:`training_set`); the truth is the image itself.
 
 How (variable projection): the output is linear in the ``g`` kernels' values once ``h1`` and
 ``h2`` are fixed. For given taps, each basis kernel of each ``g`` (one per fine level, one shared
@@ -20,8 +21,8 @@ view). ``scipy.optimize.minimize`` (Nelder-Mead) searches the taps of ``h1`` (ce
 1: its scale trades with ``g``'s) and ``h2`` on that norm.
 
 The shipped kernels (``pyramid_kernels.json``, its ``fit`` record says which run): the taps of
-``--radii 2 1 1 --evaluations 150`` (started from a 3x3 fit's), then ``--radii 2 3 3
---evaluations 0`` on those taps (7x7 ``g`` above the finest level roughly halves the largest
+``--radii 2 1 1 --evaluations 150`` (started from a 3x3 fit's, before the bright frames joined
+the training set), then ``--radii 2 3 3 --evaluations 0`` on those taps (7x7 ``g`` above the finest level roughly halves the largest
 error; searching the taps again at that size was too slow to finish, ~20 s per evaluation).
 """
 from __future__ import annotations
@@ -64,14 +65,34 @@ def disc_image(n: int, rng, discs: int, r_max: float | None = None, blur: float 
 
 def training_set(seed: int) -> list[np.ndarray]:
     """The images the kernels are fitted on (``seed`` 1) or checked on (another seed): sharp
-    discs (:func:`disc_image`) and PSF sums with soft rims
-    (:func:`runtime_cl.psf.synthetic.psf_sum_image`), 128^2 to 256^2, one channel."""
+    discs (:func:`disc_image`), PSF sums with soft rims
+    (:func:`runtime_cl.psf.synthetic.psf_sum_image`) and bright frames (:func:`frame_image`),
+    128^2 to 256^2, one channel."""
     from runtime_cl.psf.synthetic import psf_sum_image
 
     rng = np.random.default_rng(seed)
     sharp = [disc_image(n, rng, k) for n, k in ((128, 10), (192, 20), (256, 30), (256, 8))]
     soft = [psf_sum_image(n, seed * 1000 + n, channels=1)[..., 0].astype(np.float64) for n in (128, 192, 256)]
-    return sharp + soft
+    return sharp + soft + [frame_image(n, rng) for n in (160, 256)]
+
+
+def frame_image(n: int, rng) -> np.ndarray:
+    """A whole bright frame inside a zero border (a rendered image on its padded canvas): a
+    smooth random field over ~n - 2 n / 10 px with a soft 4 px edge, plus a few discs. Without
+    it the fit never sees features at the canvas's own scale (the coarsest levels)."""
+    b = n // 10
+    yy, xx = np.mgrid[0:n, 0:n] + 0.5
+    edge = np.clip(np.minimum.reduce([xx - b, yy - b, n - b - xx, n - b - yy]) / 4.0, 0.0, 1.0)
+    lattice = rng.random((5, 5))
+    y = np.linspace(0, 4, n, endpoint=False)[:, None]
+    x = np.linspace(0, 4, n, endpoint=False)[None, :]
+    y0, x0 = y.astype(int), x.astype(int)
+    fy, fx = y - y0, x - x0
+    field = ((1 - fy) * (1 - fx) * lattice[y0, x0] + (1 - fy) * fx * lattice[y0, x0 + 1]
+             + fy * (1 - fx) * lattice[y0 + 1, x0] + fy * fx * lattice[y0 + 1, x0 + 1])
+    f = (0.3 + 0.7 * field) * edge + disc_image(n, rng, 6, r_max=n / 12)
+    f[0] = f[-1] = f[:, 0] = f[:, -1] = 0.0
+    return f
 
 
 def basis_columns(lap: np.ndarray, h1, h2, radii) -> np.ndarray:

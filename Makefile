@@ -9,7 +9,7 @@ POCL    := $(VENV)/.pocl-ok
 export POCL_CACHE_DIR ?= $(CURDIR)/.cache/pocl
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.cache/numba
 
-.PHONY: demo test test-slow bench doctor clean setup
+.PHONY: demo test test-slow regress bench doctor clean setup
 
 setup: $(STAMP) $(LLVM) $(POCL)
 
@@ -42,6 +42,14 @@ test: setup
 
 test-slow: setup
 	$(VPY) -m pytest -q -m slow
+
+# Each committed baseline (reports/baselines/<scene>/report.json, written by
+# `python -m lab.report.baseline`) against a fresh report of scenes/<scene>.toml: exit 1 on a regression.
+regress: setup
+	@for b in reports/baselines/*/report.json; do \
+	  s=$$(basename $$(dirname $$b)); \
+	  $(VENV)/bin/splatlab report scenes/$$s.toml --baseline $$b --out-dir .cache/regress/$$s || exit $$?; \
+	done
 
 bench: setup
 	$(VENV)/bin/splatlab bench all

@@ -162,6 +162,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", type=Path, help="labelled-pixel EXR: R,G,B,A,Z and the splatlab.camera header")
     p.add_argument("--db", type=Path, help="spreadlet database (splatlab precompute); needed by every "
                    "method but polygon")
+    p.add_argument("--far-db", type=Path, help="with a volume --db: the volume_far database of the same scene, "
+                   "whose halos reach beyond the volume PSFs' window (fog across a wide frame)")
     methods = runtime_methods()
     p.add_argument("--method", choices=list(methods), default="spreadlets",
                    help="; ".join(f"{name}: {summary}" for name, summary in methods.items())

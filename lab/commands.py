@@ -138,6 +138,9 @@ def _check_render_options(args, cls) -> None:
                         f"MODEL --out FILE); only --method {free} work without one")
     if cls.database_models == () and args.db is not None:
         raise UserError(f"--db {args.db}: --method {args.method} uses no PSF database; drop --db")
+    if args.far_db is not None and not cls.far_field:
+        raise UserError(f"--far-db {args.far_db}: --method {args.method} does not add far fields; use it with "
+                        "--method spreadlets, splat or filter and a volume --db")
     if not cls.draws_aperture and args.aperture is not None:
         raise UserError(f"--aperture {args.aperture}: --method {args.method} draws its database's PSFs; "
                         "--aperture is for a method that draws the aperture (--method polygon)")
@@ -167,6 +170,9 @@ def cmd_render(args) -> int:
     if cls.draws_aperture:
         aperture = _render_aperture(args, image)
         options["aperture"] = aperture.splatter
+    if args.far_db is not None:
+        options["far_field"] = SpreadletDatabase.load(args.far_db, expect_model="volume_far")
+        check_header(options["far_field"], image.camera, f"{args.input} camera")
     frame = frame_of(image, str(args.input), db, options.get("layered_input", False))
     rendered, timing = run_pass(args.method, frame, runtime_camera(image, f"{args.input} camera"), db, **options)
     write_rgb(args.out, rendered[..., :3])
@@ -192,7 +198,9 @@ def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False) -
     report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
-        print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB")
+        corrected = m.get("noise_corrected_psnr")
+        said = f"   noise-corrected PSNR {corrected:.2f} dB" if corrected is not None else ""
+        print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB{said}")
     floor = report["reference"].get("noise_floor")
     if floor:
         print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")

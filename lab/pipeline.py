@@ -38,6 +38,7 @@ def render_key(scene: Scene, packages=None) -> str:
 
 
 NOISE_SEED_OFFSET = 1_000_003   # the second reference's seed: seed + this (mod 2^31)
+SECOND_REFERENCE = "reference_b_image"
 
 
 def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
@@ -47,8 +48,9 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
     The reference's passes run where ``executor`` says (default: this process), each cached in
     ``<cache>/renders/<scene>-<key>/reference-passes/`` until ``reference.exr`` is written, so an
     interrupted render resumes (:func:`lab.reference.execute.run_job`). The input renders here.
-    ``second``: also render a reference with an independent seed (``reference_b.exr``) and put how
-    far the two agree in ``info["noise_floor"]``: the SSIM and PSNR no method can beat.
+    ``second``: also render a reference with an independent seed (``reference_b.exr``), put how
+    far the two agree in ``info["noise_floor"]`` (the SSIM and PSNR no method can beat) and the
+    image in ``info[SECOND_REFERENCE]``.
     """
     from .reference.labelled import render_labelled
     from .report.metrics import psnr, ssim
@@ -76,6 +78,7 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
         again, seconds = _reference(other, plan, image, folder / "reference_b.exr", executor, progress)
         info["noise_floor"] = {"ssim": ssim(again, reference), "psnr": psnr(again, reference),
                                "seeds": [scene.render.seed, other.render.seed], "reference_s": seconds}
+        info[SECOND_REFERENCE] = again   # not for report.json: run_report takes it out
     return image, reference, info
 
 
@@ -131,9 +134,15 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
     ``executor`` (default: this process) runs the reference's passes and the databases' cells;
     ``noise`` measures the reference's noise floor (see :func:`inputs_and_reference`).
     """
+    scene, plan = load_scene_and_plan(scene_path)
+    return report_scene(scene, plan, out_dir, baseline, progress, executor, noise)
+
+
+def report_scene(scene: Scene, plan: Plan, out_dir=None, baseline=None, progress: bool = True,
+                 executor: Executor | None = None, noise: bool = False) -> dict:
+    """:func:`run_report` on a loaded scene and its plan."""
     from .report.build import assemble_report
 
-    scene, plan = load_scene_and_plan(scene_path)
     out_dir = Path(out_dir) if out_dir else default_out_dir(scene)
     baseline_report = None
     if baseline is not None:
@@ -147,7 +156,7 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
 
     results = run_runtime(plan, image, databases, progress=progress)
     report = assemble_report(scene, plan, image, reference, ref_info, databases, results, out_dir,
-                             baseline_report)
+                             baseline_report, reference_b=ref_info.pop(SECOND_REFERENCE, None))
     report["settings"]["job_seconds"] = round(time.perf_counter() - t0, 2)
     report["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     from .report.html import write_report

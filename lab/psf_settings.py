@@ -108,6 +108,37 @@ def _volume(table: dict, scene, image) -> dict:
     return table
 
 
+def near_window_px(scene) -> int:
+    """The half-width in pixels of the image the scene's volume PSFs keep (their window less the
+    tracer's margin): the far field (``volume_far``) holds the halo beyond it."""
+    from .psf_tracing.models.simple_lens import PSF_MARGIN_PX
+    from .psf_tracing.models.volume_config import VolumeConfig
+
+    return int(scene.psf.get("volume", {}).get("psf_resolution", VolumeConfig.psf_resolution)) // 2 - PSF_MARGIN_PX
+
+
+def far_field_needed(scene) -> bool:
+    """Whether a light's halo can reach beyond the volume PSF's window inside the frame: a light in
+    one corner lights the opposite one, up to max(W, H) - 1 px away."""
+    return near_window_px(scene) < max(scene.info.resolution) - 1
+
+
+def _volume_far(table: dict, scene, image) -> dict:
+    """The volume's medium, camera and distances (:func:`_volume`), its window as the hole, and a
+    window of ``pixel_scale`` px (default 8) per PSF pixel reaching across the whole frame."""
+    from .psf_tracing.models.simple_lens import PSF_MARGIN_PX
+    from .psf_tracing.models.volume_far import VolumeFarConfig
+
+    near = _volume(dict(scene.psf.get("volume", {})), scene, image)
+    keys = {k: near[k] for k in ("medium_density", "g", "albedo", "width_px", "sensor_width_mm", "focal_length_mm",
+                                 "min_distance_m", "max_distance_m")}
+    _from_camera(table, scene, "volume_far", dict(keys, hole_half_px=near_window_px(scene)))
+    scale = int(table.setdefault("pixel_scale", VolumeFarConfig.pixel_scale))
+    reach = -(-(max(image.width, image.height) - 1) // scale)   # PSF pixels to the farthest pixel
+    table.setdefault("psf_resolution", 2 * (reach + PSF_MARGIN_PX) + 1)
+    return table
+
+
 def _physical_lens(table: dict, scene, image) -> dict:
     """The camera's lens, focus and wavelengths, its sensor with the input's width and aspect,
     then the range of the input's depths rounded out (near down to 5 cm, far up to 0.5 m, so
@@ -140,7 +171,7 @@ def _physical_lens(table: dict, scene, image) -> dict:
 
 # Model name -> fill(table, scene, labelled input) -> table.
 SCENE_SETTINGS = {"simple_lens": _simple_lens, "combined": _combined, "stylized": _stylized, "volume": _volume,
-                  "physical_lens": _physical_lens}
+                  "volume_far": _volume_far, "physical_lens": _physical_lens}
 
 
 def model_table(scene, model_name: str, image) -> dict:

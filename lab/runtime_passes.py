@@ -3,7 +3,8 @@
 A plan lists its runtime passes by label (the method names of a report); each label is a
 registered pass of :mod:`runtime_cl.passes` with options (:meth:`lab.plan.Plan.pass_run`, as
 the camera's plan rule says). A pass that needs a database runs
-once with every database the plan built whose model it renders; a pass that draws the camera's
+once with every database the plan built whose model it renders (a ``volume_far`` database is no
+model of its own: it is handed to the passes that render its ``volume`` database); a pass that draws the camera's
 aperture gets the camera's iris, rectified here (the runtime ships only its built-in shapes).
 Every pass is timed by the runtime's one contract (:mod:`runtime_cl.timing`).
 """
@@ -77,8 +78,13 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
     from runtime_cl.psf.database import SpreadletDatabase
     from tqdm import tqdm
 
+    from runtime_cl.psf.far_field import MODEL as FAR_FIELD
+
     camera = runtime_camera(image)
     dbs = {name: SpreadletDatabase.load(r.path, expect_model=name) for name, r in databases.items()}
+    far = dbs.pop(FAR_FIELD, None)   # no pass renders it alone: it completes the volume database
+    if far is not None:
+        check_header(far, image.camera)
     aperture = None
     out = {}
     for label in tqdm(plan.runtime_passes, desc="runtime", unit="method", disable=not progress):
@@ -97,7 +103,8 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
                 check_header(db, image.camera)
             key = label if len(candidates) == 1 else f"{label}:{db.model}"
             frame = frame_of(image, db=db, layered_input=options.get("layered_input", False))
-            rendered, timing = run_pass(name, frame, camera, db, runs=runs, **options)
+            extra = {"far_field": far} if far is not None and cls.far_field and db.model == "volume" else {}
+            rendered, timing = run_pass(name, frame, camera, db, runs=runs, **options, **extra)
             entry = dict(timing.to_json(), **{"pass": name})
             if cls.draws_aperture and aperture is not None:
                 entry["aperture"] = aperture_info(aperture)

@@ -6,7 +6,8 @@
 - Header: ``{"lens": "pinhole", "fov_x_deg": ..., "shutter": [open, close]}``.
 - Plan: no defocus, so no PSF database; the pinhole render is its own reference and the runtime
   pass is ``identity``. With a ``[medium]`` (:class:`lab.medium.Medium`): the ``volume`` PSF model
-  through the spreadlet passes against a Mitsuba ``volpath`` reference through the medium; a
+  through the spreadlet passes against a Mitsuba ``volpath`` reference through the medium, with
+  the ``volume_far`` model's halo beyond the volume PSFs' window when the frame is wider; a
   moving scene the ``combined`` model (CoC 0) against sub-frames (:func:`~lab.cameras.base.motion_plan`).
 - Mitsuba: the ``perspective`` sensor itself.
 """
@@ -76,14 +77,19 @@ class PinholeCamera(Camera):
                                 "combines motion and scattering: remove [medium] or the velocities")
             return motion_plan(scene, "none")
         if scene.medium is not None:
+            from ..psf_settings import far_field_needed, near_window_px
+
+            far = far_field_needed(scene)
+            window = f"the volume PSFs' window (+-{near_window_px(scene)} px)"
+            skipped = () if far else (Step("volume_far", f"{window} covers the frame: no halo reaches beyond it"),)
             return {
                 "dof": "none",
                 "aperture": "none (pinhole)",
-                "psf_models": ("volume",),
+                "psf_models": ("volume", "volume_far") if far else ("volume",),
                 "references": (Step("mitsuba_volpath", f"Mitsuba volpath through the medium, {r.reference_spp} "
                                                        f"spp, max depth {r.max_depth}"),),
                 "runtime_passes": ("spreadlets", "splat", "filter"),
-                "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),),
+                "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),) + skipped,
             }
         return {
             "dof": "none",

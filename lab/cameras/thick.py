@@ -25,6 +25,8 @@ import math
 import typing
 from dataclasses import dataclass
 
+import numpy as np
+
 from runtime_cl.camera.thick_lens import ROW, ThickLens
 from runtime_cl.camera.thick_lens import surface_rows as runtime_surface_rows
 
@@ -152,7 +154,9 @@ class ThickCamera(Camera):
         return ThickLens(surfaces=self.rows(), focus_distance_m=self.focus_distance_m, focus=FOCUS,
                          sensor_width_mm=self.sensor_width_mm,
                          focal_length_mm=cam.lens.effective_focal_length_mm(FOCUS_WAVELENGTH_NM),
-                         chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm)
+                         chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm,
+                         sensor_z_mm=cam.sensor_z_mm, wavelengths_nm=WAVELENGTHS_NM,
+                         indices=tuple(cam.lens.indices(w) for w in WAVELENGTHS_NM))
 
     def camera_json(self) -> dict:
         return {**self.runtime_camera().to_json(), "shutter": self.header_shutter()}
@@ -170,8 +174,8 @@ class ThickCamera(Camera):
         except UserError as exc:
             raise UserError(f"{source}: {exc}") from None
         derived = camera.runtime_camera().to_json()
-        for key in ("focal_length_mm", "chief_scale_mm", "pupil_radius_mm"):
-            if not math.isclose(data[key], derived[key], rel_tol=1e-6):
+        for key in ("focal_length_mm", "chief_scale_mm", "pupil_radius_mm", "sensor_z_mm", "wavelengths_nm", "indices"):
+            if not np.allclose(data[key], derived[key], rtol=1e-6, atol=0.0):
                 raise UserError(f"{source} {key} = {data[key]!r}, but the header's surfaces give {derived[key]!r}; "
                                 "write the header from the scene's [camera] (splatlab reference) or fix the surfaces")
 

@@ -10,7 +10,7 @@ from runtime_cl.timing import COLUMNS
 
 from .images import save_heatmap, save_render
 from .machine import machine_info
-from .metrics import TONEMAP, error_map, psnr, ssim
+from .metrics import TONEMAP, error_map, noise_corrected_mse, psnr, ssim
 from .plots import accuracy_vs_time
 from .regress import compare
 
@@ -41,8 +41,11 @@ def timing_reference(methods: dict):
 
 
 def assemble_report(scene, plan, image, reference, ref_info, databases, results, out_dir,
-                    baseline=None) -> dict:
-    """Write the images of one run into ``out_dir`` and return the report.json dictionary."""
+                    baseline=None, reference_b=None) -> dict:
+    """Write the images of one run into ``out_dir`` and return the report.json dictionary.
+
+    ``reference_b``: a second reference with an independent seed; each method then also gets its
+    noise-corrected MSE (:func:`~lab.report.metrics.noise_corrected_mse`) and the PSNR of it."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     save_render(reference, out_dir / "reference.png")
@@ -54,6 +57,10 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
         save_heatmap(error_map(rgb, reference) * ERROR_SCALE, out_dir / f"{name}_error.png", vmax=1.0)
         methods[name] = dict(timing, ssim=ssim(rgb, reference), psnr=psnr(rgb, reference),
                              image=f"{name}.png", error_image=f"{name}_error.png", error_scale=ERROR_SCALE)
+        if reference_b is not None:
+            mse = noise_corrected_mse(rgb, reference, reference_b)
+            methods[name].update(noise_corrected_mse=mse,
+                                 noise_corrected_psnr=float(-10.0 * np.log10(mse)) if mse > 0 else None)
     plots = {}
     if len(methods) > 1:
         accuracy_vs_time(methods, out_dir / "accuracy_vs_time.png")

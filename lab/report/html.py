@@ -49,9 +49,20 @@ def render_html(report: dict) -> str:
     methods = report["methods"]
     columns = ("time_ms", "device_ms", "transfer_ms", "host_ms", "compile_ms", "prepare_ms")
     rows = [[name] + [m[c] for c in columns] + [m["ssim"], m["psnr"]] for name, m in methods.items()]
-    parts.append("<h2>Methods</h2>" + _table(
-        ["method", "time [ms]", "device [ms]", "transfers [ms]", "host [ms]", "set-up [ms] (excluded)",
-         "prepare [ms] (excluded)", "SSIM", "PSNR [dB]"], rows))
+    heads = ["method", "time [ms]", "device [ms]", "transfers [ms]", "host [ms]", "set-up [ms] (excluded)",
+             "prepare [ms] (excluded)", "SSIM", "PSNR [dB]"]
+    floor = report.get("reference", {}).get("noise_floor")
+    if floor and all("noise_corrected_mse" in m for m in methods.values()):
+        heads.append("noise-corrected PSNR [dB]")
+        for row, m in zip(rows, methods.values()):
+            row.append(m["noise_corrected_psnr"] if m["noise_corrected_psnr"] is not None else "below the noise")
+    parts.append("<h2>Methods</h2>" + _table(heads, rows))
+    if floor:
+        parts.append(f"<p>Noise floor: two references with independent seeds agree at SSIM {floor['ssim']:.4f}, "
+                     f"PSNR {floor['psnr']:.2f} dB; no method can score above that against one of them. The "
+                     "noise-corrected PSNR is that of the method's MSE against the references' expectation: "
+                     "its MSE against their mean less their own noise variance, estimated from their "
+                     "difference (lab.report.metrics.noise_corrected_mse).</p>")
     timing = report.get("timing", {})
     if isinstance(timing, dict):
         items = "".join(f"<li><code>{html.escape(k)}</code>: {html.escape(v)}</li>" for k, v in timing.items())

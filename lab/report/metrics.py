@@ -45,3 +45,24 @@ def error_map(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """Per-pixel mean absolute difference of the tonemapped images, (H, W) in [0, 1]."""
     _check(image, reference)
     return np.abs(tonemap(image) - tonemap(reference)).mean(axis=2)
+
+
+def noise_corrected_mse(image: np.ndarray, reference: np.ndarray, reference_b: np.ndarray) -> float:
+    """The MSE of ``image`` against the reference's expectation, with the references' own noise
+    taken out (on the tonemap, as every metric here).
+
+    With a, b two references rendered with independent seeds (per pixel: the same mean mu and
+    variance s^2, independent) and m the method's image, r = (a + b) / 2 has
+    E[(m - r)^2] = (m - mu)^2 + s^2 / 2 and E[(a - b)^2] = 2 s^2, so
+
+        mean((m - r)^2) - mean((a - b)^2) / 4
+
+    is an unbiased estimate of mean((m - mu)^2): the error no further reference samples would
+    change. mu is the mean of the tonemapped reference, which tends to the tonemapped converged
+    image as the noise goes (the tonemap's curvature adds a bias of order s^2). It can come out
+    below 0 when the method's error is below the estimate's own noise.
+    """
+    _check(image, reference)
+    _check(reference_b, reference)
+    m, a, b = tonemap(image), tonemap(reference), tonemap(reference_b)
+    return float(np.mean((m - 0.5 * (a + b)) ** 2) - 0.25 * np.mean((a - b) ** 2))

@@ -10,7 +10,10 @@ also writes the paraxial figures it derives from the surfaces (at the d line):
 - ``focal_length_mm``: the effective focal length;
 - ``chief_scale_mm``: the labelled pixels' pinhole focal distance (the pinhole sits at the
   entrance pupil; the paraxial chief ray of field tangent t lands at ``chief_scale_mm * t``);
-- ``pupil_radius_mm``: the entrance pupil's radius.
+- ``pupil_radius_mm``: the entrance pupil's radius;
+- ``sensor_z_mm``: the sensor plane behind the first vertex (where focusing put it);
+- ``wavelengths_nm`` and ``indices``: each channel's wavelength and the refractive index behind
+  every surface there, for exact ray tracing (:mod:`runtime_cl.camera.lens_trace`).
 
 Depths are measured from the entrance pupil. The paraxial circle of confusion about the focus
 distance F is exact for any lens of thin-lens form, with the entrance pupil radius a as the
@@ -33,7 +36,8 @@ from runtime_cl.errors import InputError
 
 FOCUS_RULES = ("best", "paraxial")
 ROW = "[radius_mm, thickness_mm, glass, semi_aperture_mm]"
-NUMBERS = ("focus_distance_m", "sensor_width_mm", "focal_length_mm", "chief_scale_mm", "pupil_radius_mm")
+NUMBERS = ("focus_distance_m", "sensor_width_mm", "focal_length_mm", "chief_scale_mm", "pupil_radius_mm",
+           "sensor_z_mm")
 
 
 def _number(value) -> bool:
@@ -68,8 +72,12 @@ class ThickLens:
         How the sensor was placed: the smallest spot of the focus distance, or its paraxial image.
     sensor_width_mm : float
         Sensor width; the image width spans it.
-    focal_length_mm, chief_scale_mm, pupil_radius_mm : float
-        Paraxial figures of the surfaces (the module docstring); all > 0.
+    focal_length_mm, chief_scale_mm, pupil_radius_mm, sensor_z_mm : float
+        Paraxial figures of the surfaces and the sensor plane (the module docstring); all > 0.
+    wavelengths_nm : tuple of float
+        Each channel's wavelength (R, G, B).
+    indices : tuple of tuple of float
+        Per channel, the refractive index behind each surface (>= 1; 1 for air).
     """
 
     lens: ClassVar[str]
@@ -80,6 +88,9 @@ class ThickLens:
     focal_length_mm: float
     chief_scale_mm: float
     pupil_radius_mm: float
+    sensor_z_mm: float
+    wavelengths_nm: tuple
+    indices: tuple
 
     def __post_init__(self):
         object.__setattr__(self, "surfaces", surface_rows(self.surfaces, "camera surfaces"))
@@ -87,6 +98,17 @@ class ThickLens:
             value = getattr(self, name)
             if not (_number(value) and math.isfinite(value) and value > 0):
                 raise InputError(f"camera {name} = {value!r}: must be a finite number > 0")
+        waves, idx = self.wavelengths_nm, self.indices
+        if not (isinstance(waves, (list, tuple)) and waves and all(_number(w) and w > 0 for w in waves)):
+            raise InputError(f"camera wavelengths_nm = {waves!r}: give one wavelength (nm, > 0) per channel")
+        n = len(self.surfaces)
+        if not (isinstance(idx, (list, tuple)) and len(idx) == len(waves) and all(
+                isinstance(row, (list, tuple)) and len(row) == n and all(_number(v) and 1.0 <= v < 4.0 for v in row)
+                for row in idx)):
+            raise InputError(f"camera indices = {idx!r}: give, per wavelength ({len(waves)}), the refractive index "
+                             f"behind each of the {n} surfaces (1 <= n < 4)")
+        object.__setattr__(self, "wavelengths_nm", tuple(float(w) for w in waves))
+        object.__setattr__(self, "indices", tuple(tuple(float(v) for v in row) for row in idx))
         if self.focus not in FOCUS_RULES:
             raise InputError(f"camera focus = {self.focus!r}: use one of {list(FOCUS_RULES)}")
 
@@ -106,14 +128,15 @@ class ThickLens:
 
     def to_json(self) -> dict:
         return {"lens": self.lens, "surfaces": [list(row) for row in self.surfaces],
-                **{name: getattr(self, name) for name in NUMBERS}, "focus": self.focus}
+                **{name: getattr(self, name) for name in NUMBERS}, "focus": self.focus,
+                "wavelengths_nm": list(self.wavelengths_nm), "indices": [list(row) for row in self.indices]}
 
     @classmethod
     def from_json(cls, data: dict, source: str = "camera") -> "ThickLens":
         """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
         if data.get("lens") != cls.lens:
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
-        known = {"lens", "surfaces", "focus", "shutter", *NUMBERS}
+        known = {"lens", "surfaces", "focus", "shutter", "wavelengths_nm", "indices", *NUMBERS}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")

@@ -75,11 +75,17 @@ def volume_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfCoord
     """
     expect_space(db, "volume", ("distance_m",))
     check_symmetries(db, ("rotation",))
+    distance = light_distance(camera, depth)
+    coords = in_range("light distance", distance, db, 0, "m", lambda lo, hi: "rebuild the database with "
+                      f"min_distance_m <= {lo:.4g} and max_distance_m >= {hi:.4g}")
+    return PsfCoords(coords[..., None], None)
+
+
+def light_distance(camera, depth) -> np.ndarray:
+    """(H, W) float64: Z sqrt(1 + (x^2 + y^2) / f_px^2), the distance from the camera's centre of
+    projection to the point each pixel sees (``volume`` and its far field)."""
     z = as_depth(depth)
     h, w = z.shape
     f_px = camera.focal_px(w)
     x, y = pixel_offsets(h, w)
-    distance = z * np.sqrt(1.0 + (x * x + y * y) / (f_px * f_px))
-    coords = in_range("light distance", distance, db, 0, "m", lambda lo, hi: "rebuild the database with "
-                      f"min_distance_m <= {lo:.4g} and max_distance_m >= {hi:.4g}")
-    return PsfCoords(coords[..., None], None)
+    return z * np.sqrt(1.0 + (x * x + y * y) / (f_px * f_px))

@@ -51,6 +51,9 @@ class RuntimePass(abc.ABC):
     integrates : bool
         Whether it integrates a Laplacian canvas, so takes the option ``integrator`` (a name
         from :func:`runtime_cl.integrate.integrator_names`).
+    far_field : bool
+        Whether it takes the option ``far_field`` (a ``volume_far`` database whose halos it adds
+        to a ``volume`` database's render: :mod:`runtime_cl.psf.far_field`).
 
     Parameters
     ----------
@@ -73,6 +76,7 @@ class RuntimePass(abc.ABC):
     draws_aperture: ClassVar[bool] = False
     timing_reference: ClassVar[bool] = False
     integrates: ClassVar[bool] = False
+    far_field: ClassVar[bool] = False
 
     def __init__(self, camera, db=None, *, layers: int = 1, device=None, **options):
         if isinstance(layers, bool) or not isinstance(layers, int) or layers < 1:

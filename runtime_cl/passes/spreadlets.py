@@ -15,6 +15,7 @@ from runtime_cl.coords.maps import needs_motion, psf_coords
 from runtime_cl.errors import InputError
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.passes.registry import RuntimePass, integrating_passes, register_pass
+from runtime_cl.psf.far_field import FarField
 from runtime_cl.spreadlets.renderer import Renderer
 from runtime_cl.spreadlets.splat import RUN_MAX
 from runtime_cl.timing import CallTimes
@@ -27,30 +28,37 @@ class SpreadletPass(RuntimePass):
 
     Options: ``tile``, ``run_max``, ``spreadlet_rotation`` and, for a pass that integrates a
     Laplacian canvas (``integrates``), ``integrator`` as for :class:`Renderer` (a name from
-    :func:`runtime_cl.integrate.integrator_names`; default ``"exact"``).
+    :func:`runtime_cl.integrate.integrator_names`; default ``"exact"``); ``far_field``: a
+    ``volume_far`` database whose halos are added to a ``volume`` database's render
+    (:class:`runtime_cl.psf.far_field.FarField`).
     """
 
     method: ClassVar[str]
     database_models = None
     channels = ("R", "G", "B", "Z")
     layered = False
+    far_field = True
 
     def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
-                  integrator: str = DEFAULT_INTEGRATOR):
+                  far_field=None, integrator: str = DEFAULT_INTEGRATOR):
         get_integrator(integrator)   # an unknown name is an error for every pass
         if integrator != DEFAULT_INTEGRATOR and not self.integrates:
             raise InputError(f"integrator = {integrator!r}: the {self.name!r} pass integrates no Laplacian; "
                              f"the integrator is an option of {integrating_passes()}")
         self.renderer = Renderer(self.db, self.device, tile=tile, run_max=run_max,
                                  spreadlet_rotation=spreadlet_rotation, integrator=integrator)
+        self.far = None if far_field is None else FarField(far_field, near=self.db)
 
     def prepare(self, frame):
         motion = frame.motion if needs_motion(self.db.model) else None
-        return np.asarray(frame.rgb), psf_coords(self.camera, frame.depth, self.db, motion)
+        far = None if self.far is None else self.far.prepare(self.camera, frame.depth)
+        return np.asarray(frame.rgb), psf_coords(self.camera, frame.depth, self.db, motion), far
 
     def __call__(self, prepared):
-        rgb, coords = prepared
+        rgb, coords, far = prepared
         image, t = self.renderer.render(rgb, coords.coords, self.method, angle=coords.angle)
+        if far is not None:  # host work: in the call's time, outside device and transfer time
+            image = image + self.far.render(rgb, far)
         return image, CallTimes(device_ms=t["kernel_ms"] + t["integrate_device_ms"],
                                 transfer_ms=t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"],
                                 counts={k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels")})

@@ -105,6 +105,12 @@ def test_a_medium_with_a_pinhole_plans_the_volume_model_and_volpath():
     assert plan.psf_models == ("volume",) and [r.name for r in plan.references] == ["mitsuba_volpath"]
     assert plan.effects["medium"].startswith("homogeneous (sigma_t 0.5 /m")
     assert "participating medium" not in {x.name for x in plan.skipped}
+    assert "volume_far" in {x.name for x in plan.skipped}                  # the window covers 16 x 8 px
+    wide = parse_scene({"scene": {"name": "f", "resolution": [400, 300]},
+                        "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **PINHOLE},
+                        "medium": {"sigma_t": 0.5}, "psf": {"volume": {"psf_resolution": 101}},
+                        "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
+    assert make_plan(wide).psf_models == ("volume", "volume_far")           # halos beyond +-48 px
 
 
 def test_a_medium_is_validated_and_a_thin_lens_cannot_carry_it():

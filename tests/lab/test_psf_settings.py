@@ -59,3 +59,26 @@ def test_a_fog_that_sees_the_sky_is_refused():
     table = model_table(s, "volume", _image(2.0))
     assert table["medium_density"] == 0.5 and table["width_px"] == 16
     assert table["min_distance_m"] == 2.0 and 2.0 < table["max_distance_m"] <= 2.5
+
+
+def test_the_far_field_completes_the_volume_window_across_the_frame():
+    import dataclasses
+
+    from lab.scene import parse_scene
+
+    s = parse_scene({"scene": {"name": "f", "resolution": [16, 8]},
+                     "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "model": "pinhole", "fov_deg": 40},
+                     "medium": {"sigma_t": 0.5, "g": 0.3}, "psf": {"volume": {"psf_resolution": 9}},
+                     "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
+    near, far = model_table(s, "volume", _image(2.0)), model_table(s, "volume_far", _image(2.0))
+    for key in ("medium_density", "g", "albedo", "width_px", "focal_length_mm", "min_distance_m", "max_distance_m"):
+        assert far[key] == near[key], key
+    # the volume keeps +-2 px (9 // 2 - 2); 8 px PSF pixels reach 15 px in 2 of them, + 2 margin each side
+    assert far["hole_half_px"] == 2 and far["pixel_scale"] == 8 and far["psf_resolution"] == 9
+
+    def psf(**tables):
+        return dataclasses.replace(s, psf={**s.psf, **tables})
+
+    assert model_table(psf(volume_far={"pixel_scale": 3}), "volume_far", _image(2.0))["psf_resolution"] == 15
+    with pytest.raises(UserError, match=r"\[psf.volume_far\] hole_half_px = 7: .*hole_half_px = 2"):
+        model_table(psf(volume_far={"hole_half_px": 7}), "volume_far", _image(2.0))

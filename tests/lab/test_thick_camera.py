@@ -63,7 +63,9 @@ def test_the_header_carries_the_lens_and_round_trips():
 
 @pytest.mark.parametrize("key, value, said", [
     ("chief_scale_mm", 52.0, "chief_scale_mm = 52.0, but the header's surfaces give"),
-    ("surfaces", [[0, 10.0, "air", 8.9], [50, 8, "BK7", 12], [-50, 0, "air", 12]], "surfaces[1]: glass = 'BK7'"),
+    ("surfaces", [r[:2] + ["BK7"] + r[3:] if r[2] == "N-BK7" else r for r in ROWS], "glass = 'BK7'"),
+    ("indices", [[1.0, 1.0, 1.6, 1.0]] * 3, "indices = [[1.0, 1.0, 1.6, 1.0]"),
+    ("sensor_z_mm", 60.0, "sensor_z_mm = 60.0, but the header's surfaces give"),
     ("focus", "paraxial", "focus = 'paraxial'"),
     ("surfaces", [[50, 8, "N-BK7", 12]], "h.exr"),
 ])

@@ -8,5 +8,6 @@ from lab.psf_tracing.models import combined  # noqa: F401  (registers "combined"
 from lab.psf_tracing.models import stylized  # noqa: F401  (registers "stylized")
 from lab.psf_tracing.models import physical_lens  # noqa: F401  (registers "physical_lens")
 from lab.psf_tracing.models import volume  # noqa: F401  (registers "volume")
+from lab.psf_tracing.models import volume_far  # noqa: F401  (registers "volume_far")
 
 __all__ = ["PSFModel", "get_model", "load_model", "model_names", "register_model"]

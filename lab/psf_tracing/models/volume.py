@@ -206,10 +206,12 @@ class Volume(PSFModel):
         # PSF_MARGIN_PX border, which the sparsifier needs empty (crossings there count as outside)
         half = c.psf_resolution // 2
         lo, hi = PSF_MARGIN_PX - half, c.psf_resolution - 1 - half - PSF_MARGIN_PX
-        cos_lo, near_fraction = _cone(max(-lo, hi) + 0.5, c.focal_length_px)
+        scale, hole = self.bins()
+        cos_lo, near_fraction = _cone((max(-lo, hi) + 0.5) * scale, c.focal_length_px)
         cos_lo2, near_fraction = o(Float, cos_lo * cos_lo), o(Float, near_fraction)
         escape = o(Float, c.escape_mfp / c.medium_density)
         lo, hi = o(Float, lo), o(Float, hi)
+        inv_scale, hole = o(Float, 1.0 / scale), o(Float, hole)
         # every photon's start, computed for all rays at once (all lanes busy) and gathered by a
         # lane when it takes the photon: cheaper than computing it there for the whole packet
         first = _emitted(rng, c)
@@ -235,9 +237,15 @@ class Volume(PSFModel):
             nrm = dr.select(ph.dist > 1e-6, x * dr.rsqrt(dr.squared_norm(x)), ph.w)
             e1, e2 = frame(nrm)
             inv = fpx / dr.dot(ph.w, nrm)
-            kx = dr.floor(dr.fma(dr.dot(ph.w, e1), inv, 0.5))
-            ky = dr.floor(dr.fma(dr.dot(ph.w, e2), inv, 0.5))
-            seen = (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi)
+            if scale == 1:
+                kx = dr.floor(dr.fma(dr.dot(ph.w, e1), inv, 0.5))
+                ky = dr.floor(dr.fma(dr.dot(ph.w, e2), inv, 0.5))
+                seen = (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi)
+            else:  # PSF pixels of scale^2 image pixels; the image pixels of the hole are not seen
+                ix, iy = dr.dot(ph.w, e1) * inv, dr.dot(ph.w, e2) * inv
+                kx, ky = dr.floor(dr.fma(ix, inv_scale, 0.5)), dr.floor(dr.fma(iy, inv_scale, 0.5))
+                in_hole = (dr.abs(dr.floor(ix + 0.5)) <= hole) & (dr.abs(dr.floor(iy + 0.5)) <= hole)
+                seen = (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi) & ~in_hole
             ph.count = dr.select(seen, ph.count + 2, ph.count)
             k = ph.count >> 1
             take = seen & (_hashed_uniform(ray, k, key) * Float(k) < 1.0)
@@ -284,6 +292,11 @@ class Volume(PSFModel):
         offset = dr.select(k > 0, hit, Array2f(far, far))             # crossings all beside the image
         return RayHits(offset, active=(counts & 1) == 1, channel=dr.arange(UInt32, n) % 3,
                        weight=dr.maximum(k, 1))
+
+    def bins(self) -> tuple[int, int]:
+        """(image pixels per PSF pixel along each axis, the half-width in image pixels of the
+        centre square whose crossings are not counted; -1: none). The volume's own PSFs: (1, -1)."""
+        return 1, -1
 
     def trace_checked(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> TraceResult:
         """:meth:`trace_cell`: light scattered beyond the image's field is expected (the halo is

@@ -75,6 +75,10 @@ def test_report_over_several_scenes_writes_lsr18_table2(motion_report, tmp_path,
         assert row["speedup_vs_splat"] == pytest.approx(report["methods"]["splat"]["time_ms"]
                                                          / report["methods"]["spreadlets"]["time_ms"])
         assert 0.5 < row["noise_floor"]["ssim"] < 1.0 and row["paper"] is None
+        for m in report["methods"].values():  # the reference's own noise taken out of the error
+            plain_mse = 10.0 ** (-m["psnr"] / 10.0)
+            assert 0.0 < m["noise_corrected_mse"] < plain_mse
+        assert "noise-corrected PSNR" in (tmp_path / row["scene"] / "index.html").read_text()
     page = (tmp_path / "index.html").read_text()
     assert "href='tiny_motion/index.html'" in page and "LSR18 Table 2" in page
     assert "noise floor: two reference seeds agree" in capsys.readouterr().out

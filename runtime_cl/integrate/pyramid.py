@@ -25,8 +25,8 @@ noise comes back up to ~5 % off, which is why in-focus pixels belong on the fast
 
 Kernels (``kernels/integrate/pyramid.cl``), one launch per level and step, all on the device:
 the canvas mean (row sums, then their sum), the analysis levels (down the columns, then across
-the rows), the synthesis from the coarsest level up (up-sampling down the columns, then one
-kernel for the rest), the mean of level 0's border ring (computed from level 1 before level 0 is
+the rows), the synthesis from the coarsest level up (up-sampling across the rows of the coarse
+level, then one kernel for the rest, row-wise), the mean of level 0's border ring (computed from level 1 before level 0 is
 written, so level 0 is written once, already shifted), then one download. The row-wise kernels
 work on runs of 8 floats of the interleaved channels, so they vectorise for any channel count.
 """
@@ -90,15 +90,15 @@ class PyramidIntegrator(Integrator):
                        f"-DRG={g_radius}", f"-DPAD={PAD}", f"-DVW={self.vector_width}"]
             program, record = self.device.program(("integrate/pyramid.cl",), options)
             kernels = {n: cl.Kernel(program, n)
-                       for n in ("row_sums", "finish_mean", "down_v", "down_h", "up_v", "synth", "ring_mean")}
+                       for n in ("row_sums", "finish_mean", "down_v", "down_h", "up_h", "synth", "ring_mean")}
             kernels["row_sums"].set_scalar_arg_dtypes([None, _I, _I, None])
             kernels["finish_mean"].set_scalar_arg_dtypes([None, _I, _I, None])
             kernels["down_v"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None])
             kernels["down_h"].set_scalar_arg_dtypes([None, _I, _I, None, _I, None])
-            kernels["up_v"].set_scalar_arg_dtypes([None, _I, None, _I, None])
-            kernels["synth"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, _I, None, None, np.float32,
+            kernels["up_h"].set_scalar_arg_dtypes([None, _I, _I, None, _I, None])
+            kernels["synth"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None, None, np.float32,
                                                     None, None])
-            kernels["ring_mean"].set_scalar_arg_dtypes([None, _I, _I, None, None, _I, None, None, None])
+            kernels["ring_mean"].set_scalar_arg_dtypes([None, _I, _I, None, None, None, None, None])
             self._programs[key] = kernels
             self._pending.append(record)
         return self._programs[key]
@@ -126,7 +126,7 @@ class PyramidIntegrator(Integrator):
 
     def _level_buffers(self, h: int, w: int, channels: int):
         """Per level the analysis ``a`` (level 0: the uploaded canvas) and the synthesis ``s``;
-        scratch ``t`` (analysis down the columns) and ``u`` (synthesis down the columns)."""
+        scratch ``t`` (analysis down the columns) and ``u`` (synthesis across the rows)."""
         import pyopencl as cl
 
         key = (h, w, channels)
@@ -138,7 +138,7 @@ class PyramidIntegrator(Integrator):
             s = [new(hh * ww * channels) for hh, ww in shapes]
             pairs = list(zip(shapes, shapes[1:]))
             t = new(max([nh * ww * channels for (_, ww), (nh, _) in pairs], default=1))
-            u = new(max([hh * cw * channels for (hh, _), (_, cw) in pairs], default=1))
+            u = new(max([ch * ww * channels for (_, ww), (ch, _) in pairs], default=1))
             zeros = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.zeros(channels, np.float32))
             small = [cl.Buffer(ctx, mf.READ_WRITE, channels * 4) for _ in range(2)]   # mean, offset
             sums = cl.Buffer(ctx, mf.READ_WRITE, h * channels * 4)
@@ -174,15 +174,15 @@ class PyramidIntegrator(Integrator):
         top = len(shapes) - 1
         th, tw = shapes[top]
         ev.append(at(top, per_g)["synth"](q, *rows(tw * channels, th), a[top], th, tw, mean if top == 0 else zeros,
-                                          a[top], 1, 0, h2p, at(top, gs), at(top, g_sums), zeros, s[top]))
+                                          a[top], 0, h2p, at(top, gs), at(top, g_sums), zeros, s[top]))
         for level in range(top - 1, -1, -1):
             (hh, ww), (ch, cw) = shapes[level], shapes[level + 1]
-            ev.append(kern["up_v"](q, *rows(cw * channels, hh), s[level + 1], cw, u, hh, h2p))
+            ev.append(kern["up_h"](q, *_grid(ww, ch), s[level + 1], ch, cw, u, ww, h2p))
             if level == 0:   # the ring's mean first, so level 0 is written once, shifted
-                ev.append(at(0, per_g)["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, u, cw, h2p,
+                ev.append(at(0, per_g)["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, u, h2p,
                                                     at(0, gs), offset))
             ev.append(at(level, per_g)["synth"](q, *rows(ww * channels, hh), a[level], hh, ww,
-                                                mean if level == 0 else zeros, u, cw, 1, h2p, at(level, gs),
+                                                mean if level == 0 else zeros, u, 1, h2p, at(level, gs),
                                                 at(level, g_sums), offset if level == 0 else zeros, s[level]))
         out = np.empty_like(lap)
         down = cl.enqueue_copy(q, out, s[0], is_blocking=False)

@@ -123,34 +123,35 @@ __kernel void down_h(__global const float *t, int nh, int w, __global float *nex
         across_at(t, nh, w, next, nw, h1, j, i, 1);
 }
 
-// synthesis, down the columns: u[y][.] = (h2 * up(s))[y + PAD] along y, u is h x cw. Every tap
-// lands inside s (its level has PAD >= R2 samples more on each side), so nothing is checked.
-__kernel void up_v(__global const float *s, int cw, __global float *u, int h, __constant float *h2p)
+// synthesis, across the rows: u[j][x] = (h2 * up(s))[.][x + PAD] along x, u is ch x w (one work
+// item per pixel, all channels). Every tap lands inside s (its level has PAD >= R2 samples more
+// on each side), so nothing is checked.
+__kernel void up_h(__global const float *s, int ch, int cw, __global float *u, int w, __constant float *h2p)
 {
-    int f = VW * get_global_id(0), y = get_global_id(1), n = cw * C;
-    if (f >= n || y >= h) return;
-    int uy = y + PAD - R2, p = uy & 1, base = (uy + p) >> 1;
-    floatv acc = (floatv)(0.0f);
-    for (int k = 0; k <= R2; ++k)
-        acc += h2p[2 * k + p] * loadv(s, (base + k) * n + f);
-    float r[VW];
-    to_array(acc, r);
-    storev(u, y * n, f, n, r);
+    int x = get_global_id(0), j = get_global_id(1);
+    if (x >= w || j >= ch) return;
+    int ux = x + PAD - R2, p = ux & 1, base = (ux + p) >> 1;
+    for (int c = 0; c < C; ++c) {
+        float acc = 0.0f;
+        for (int k = 0; k <= R2; ++k)
+            acc += h2p[2 * k + p] * s[(j * cw + base + k) * C + c];
+        u[(j * w + x) * C + c] = acc;
+    }
 }
 
-// (h2 * up(s))[y + PAD][x + PAD] for channel c from the column-upsampled u (h x cw): the taps
-// along x; all inside u
-inline float across_up(__global const float *u, int cw, __constant float *h2p, int y, int x, int c)
+// (h2 * up(s))[y + PAD][x + PAD] for channel c from the row-upsampled u (ch x w): the taps down
+// the column; all inside u
+inline float down_up(__global const float *u, int w, __constant float *h2p, int y, int x, int c)
 {
-    int ux = x + PAD - R2, p = ux & 1, base = (ux + p) >> 1;
+    int uy = y + PAD - R2, p = uy & 1, base = (uy + p) >> 1;
     float s = 0.0f;
     for (int k = 0; k <= R2; ++k)
-        s += h2p[2 * k + p] * u[(y * cw + base + k) * C + c];
+        s += h2p[2 * k + p] * u[((base + k) * w + x) * C + c];
     return s;
 }
 
 // one output sample of a level: (g * (a - m))[y][x] + the coarse term (if has_coarse), checked
-inline float synth_px(__global const float *a, int h, int w, float m, __global const float *u, int cw,
+inline float synth_px(__global const float *a, int h, int w, float m, __global const float *u,
                       int has_coarse, __constant float *h2p, __constant float *g, int y, int x, int c)
 {
     float s = 0.0f;
@@ -160,34 +161,34 @@ inline float synth_px(__global const float *a, int h, int w, float m, __global c
             if (x + dx >= 0 && x + dx < w)
                 s += g[(dy + RG) * (2 * RG + 1) + dx + RG] * (a[((y + dy) * w + x + dx) * C + c] - m);
     }
-    return has_coarse ? s + across_up(u, cw, h2p, y, x, c) : s;
+    return has_coarse ? s + down_up(u, w, h2p, y, x, c) : s;
 }
 
 // one level of the synthesis minus offset[c] (level 0: its border ring's mean; else zeros):
-// out = g * (a - mean) + h2 * up(coarse), the latter from u = up_v(coarse). One work item per
-// 4 floats of a row; those whose g taps all fall inside the level take the unchecked path.
+// out = g * (a - mean) + h2 * up(coarse), the latter from u = up_h(coarse). One work item per
+// VW floats of a row; those whose g taps all fall inside the level take the unchecked path.
 __kernel void synth(__global const float *a, int h, int w, __global const float *mean,
-                    __global const float *u, int cw, int has_coarse, __constant float *h2p,
+                    __global const float *u, int has_coarse, __constant float *h2p,
                     __constant float *g, float g_sum, __global const float *offset, __global float *out)
 {
     int f = VW * get_global_id(0), y = get_global_id(1), n = w * C;
     if (f >= n || y >= h) return;
     float r[VW];
     if (y >= RG && y + RG < h && f >= C * RG && f + VW + C * RG <= n) {
-        floatv acc = -g_sum * lanes(mean, f);
+        floatv acc = -g_sum * lanes(mean, f) - lanes(offset, f);
         for (int dy = -RG; dy <= RG; ++dy)
             for (int dx = -RG; dx <= RG; ++dx)
                 acc += g[(dy + RG) * (2 * RG + 1) + dx + RG] * loadv(a, (y + dy) * n + f + C * dx);
-        to_array(acc, r);
-        for (int k = 0; k < VW; ++k) {
-            int x = (f + k) / C, c = f + k - x * C;
-            if (has_coarse) r[k] += across_up(u, cw, h2p, y, x, c);
-            r[k] -= offset[c];
+        if (has_coarse) {   // the coarse term's taps down the column: the same for the whole row
+            int uy = y + PAD - R2, p = uy & 1, base = (uy + p) >> 1;
+            for (int k = 0; k <= R2; ++k)
+                acc += h2p[2 * k + p] * loadv(u, (base + k) * n + f);
         }
+        to_array(acc, r);
     } else {
         for (int k = 0; k < VW && f + k < n; ++k) {
             int x = (f + k) / C, c = f + k - x * C;
-            r[k] = synth_px(a, h, w, mean[c], u, cw, has_coarse, h2p, g, y, x, c) - offset[c];
+            r[k] = synth_px(a, h, w, mean[c], u, has_coarse, h2p, g, y, x, c) - offset[c];
         }
     }
     storev(out, y * n, f, n, r);
@@ -195,14 +196,14 @@ __kernel void synth(__global const float *a, int h, int w, __global const float 
 
 // offset[c] = mean of level 0's synthesis over the canvas's border ring (one work item per channel)
 __kernel void ring_mean(__global const float *a, int h, int w, __global const float *mean,
-                        __global const float *u, int cw, __constant float *h2p, __constant float *g,
+                        __global const float *u, __constant float *h2p, __constant float *g,
                         __global float *offset)
 {
     int c = get_global_id(0);
     float m = mean[c], s = 0.0f;
     for (int x = 0; x < w; ++x)
-        s += synth_px(a, h, w, m, u, cw, 1, h2p, g, 0, x, c) + synth_px(a, h, w, m, u, cw, 1, h2p, g, h - 1, x, c);
+        s += synth_px(a, h, w, m, u, 1, h2p, g, 0, x, c) + synth_px(a, h, w, m, u, 1, h2p, g, h - 1, x, c);
     for (int y = 1; y < h - 1; ++y)
-        s += synth_px(a, h, w, m, u, cw, 1, h2p, g, y, 0, c) + synth_px(a, h, w, m, u, cw, 1, h2p, g, y, w - 1, c);
+        s += synth_px(a, h, w, m, u, 1, h2p, g, y, 0, c) + synth_px(a, h, w, m, u, 1, h2p, g, y, w - 1, c);
     offset[c] = s / (float)(2 * w + 2 * (h - 2));
 }

@@ -62,15 +62,15 @@ class PyramidIntegrator(Integrator):
         Default :func:`~runtime_cl.device.opencl.get_device`.
     kernels : PyramidKernels, optional
         Default: the fitted ones (:func:`~runtime_cl.integrate.pyramid_model.load_kernels`).
-    vector_width : {4, 8}
+    vector_width : {4, 8, 16}
         Floats per work item of the row-wise kernels (default 8).
     """
 
     summary = "convolution pyramid (Farbman et al. 2011) on the OpenCL device, fitted kernels"
 
     def __init__(self, device=None, kernels: PyramidKernels | None = None, vector_width: int = 8):
-        if vector_width not in (4, 8):
-            raise InputError(f"vector_width = {vector_width!r}: must be 4 or 8")
+        if vector_width not in (4, 8, 16):
+            raise InputError(f"vector_width = {vector_width!r}: must be 4, 8 or 16")
         super().__init__(device or get_device())
         self.vector_width = vector_width
         self.kernels = kernels or load_kernels()
@@ -133,7 +133,7 @@ class PyramidIntegrator(Integrator):
         if key not in self._buffers:
             ctx, mf = self.device.context, cl.mem_flags
             shapes = level_shapes(h, w)
-            new = lambda floats: cl.Buffer(ctx, mf.READ_WRITE, 4 * (floats + 8))  # noqa: E731  (+8: vector tails)
+            new = lambda floats: cl.Buffer(ctx, mf.READ_WRITE, 4 * (floats + 16))  # noqa: E731  (+16: vector tails)
             a = [new(hh * ww * channels) for hh, ww in shapes]
             s = [new(hh * ww * channels) for hh, ww in shapes]
             pairs = list(zip(shapes, shapes[1:]))

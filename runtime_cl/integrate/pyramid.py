@@ -64,15 +64,20 @@ class PyramidIntegrator(Integrator):
         Default: the fitted ones (:func:`~runtime_cl.integrate.pyramid_model.load_kernels`).
     vector_width : {4, 8, 16}
         Floats per work item of the row-wise kernels (default 8).
+    row_block : {1, 2}
+        Rows per work item of the synthesis, which share their input rows (default 2).
     """
 
     summary = "convolution pyramid (Farbman et al. 2011) on the OpenCL device, fitted kernels"
 
-    def __init__(self, device=None, kernels: PyramidKernels | None = None, vector_width: int = 8):
+    def __init__(self, device=None, kernels: PyramidKernels | None = None, vector_width: int = 8,
+                 row_block: int = 2):
         if vector_width not in (4, 8, 16):
             raise InputError(f"vector_width = {vector_width!r}: must be 4, 8 or 16")
         super().__init__(device or get_device())
-        self.vector_width = vector_width
+        if row_block not in (1, 2):
+            raise InputError(f"row_block = {row_block!r}: must be 1 or 2")
+        self.vector_width, self.row_block = vector_width, row_block
         self.kernels = kernels or load_kernels()
         self._programs: dict = {}
         self._pending: list = []    # builds not warmed up yet
@@ -87,7 +92,8 @@ class PyramidIntegrator(Integrator):
         if key not in self._programs:
             k = self.kernels
             options = [f"-DC={channels}", f"-DR1={len(k.h1) // 2}", f"-DR2={len(k.h2) // 2}",
-                       f"-DRG={g_radius}", f"-DPAD={PAD}", f"-DVW={self.vector_width}"]
+                       f"-DRG={g_radius}", f"-DPAD={PAD}", f"-DVW={self.vector_width}",
+                       f"-DRB={self.row_block}"]
             program, record = self.device.program(("integrate/pyramid.cl",), options)
             kernels = {n: cl.Kernel(program, n)
                        for n in ("row_sums", "finish_mean", "down_v", "down_h", "up_h", "synth", "ring_mean")}
@@ -173,7 +179,8 @@ class PyramidIntegrator(Integrator):
             ev.append(kern["down_h"](q, *_grid(nw, nh), t, nh, ww, a[level + 1], nw, h1))
         top = len(shapes) - 1
         th, tw = shapes[top]
-        ev.append(at(top, per_g)["synth"](q, *rows(tw * channels, th), a[top], th, tw, mean if top == 0 else zeros,
+        rb = self.row_block
+        ev.append(at(top, per_g)["synth"](q, *rows(tw * channels, -(-th // rb)), a[top], th, tw, mean if top == 0 else zeros,
                                           a[top], 0, h2p, at(top, gs), at(top, g_sums), zeros, s[top]))
         for level in range(top - 1, -1, -1):
             (hh, ww), (ch, cw) = shapes[level], shapes[level + 1]
@@ -181,7 +188,7 @@ class PyramidIntegrator(Integrator):
             if level == 0:   # the ring's mean first, so level 0 is written once, shifted
                 ev.append(at(0, per_g)["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, u, h2p,
                                                     at(0, gs), offset))
-            ev.append(at(level, per_g)["synth"](q, *rows(ww * channels, hh), a[level], hh, ww,
+            ev.append(at(level, per_g)["synth"](q, *rows(ww * channels, -(-hh // rb)), a[level], hh, ww,
                                                 mean if level == 0 else zeros, u, 1, h2p, at(level, gs),
                                                 at(level, g_sums), offset if level == 0 else zeros, s[level]))
         out = np.empty_like(lap)

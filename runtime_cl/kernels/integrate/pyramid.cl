@@ -4,7 +4,7 @@
 // row-wise kernels work on runs of VW floats of a row (any C), the rest per pixel.
 // -D C=channels, R1 / R2 = radius of the separable taps h1 / h2, RG = radius of the 2-D g,
 // PAD = zero samples added on each side of a level before it is filtered and halved.
-// VW = floats per work item of the row-wise kernels (4, 8 or 16). Buffers hold 16 spare floats at
+// VW = floats per work item of the row-wise kernels (4, 8 or 16), RB = rows per synthesis item. Buffers hold 16 spare floats at
 // their end, so a vector load at a row's last floats stays inside.
 // h2p is h2 with one 0 appended: the zero-insertion taps of a parity p are h2p[2t + p], t <= R2.
 
@@ -181,32 +181,44 @@ inline float synth_px(__global const float *a, int h, int w, float m, __global c
 
 // one level of the synthesis minus offset[c] (level 0: its border ring's mean; else zeros):
 // out = g * (a - mean) + h2 * up(coarse), the latter from u = up_h(coarse). One work item per
-// VW floats of a row; those whose g taps all fall inside the level take the unchecked path.
+// VW floats of RB (1 or 2) rows, which share their input rows' loads; those whose g taps all
+// fall inside the level take the unchecked path.
 __kernel void synth(__global const float *a, int h, int w, __global const float *mean,
                     __global const float *u, int has_coarse, __constant float *h2p,
                     __constant float *g, float g_sum, __global const float *offset, __global float *out)
 {
-    int f = VW * get_global_id(0), y = get_global_id(1), n = w * C;
+    int f = VW * get_global_id(0), y = RB * get_global_id(1), n = w * C;
     if (f >= n || y >= h) return;
     float r[VW];
-    if (y >= RG && y + RG < h && f >= C * RG && f + VW + C * RG <= n) {
-        floatv acc = -g_sum * lanes(mean, f) - lanes(offset, f);
-        for (int dy = -RG; dy <= RG; ++dy)
-            for (int dx = -RG; dx <= RG; ++dx)
-                acc += g[(dy + RG) * (2 * RG + 1) + dx + RG] * loadv(a, (y + dy) * n + f + C * dx);
-        if (has_coarse) {   // the coarse term's taps down the column: the same for the whole row
-            int uy = y + PAD - R2, p = uy & 1, base = (uy + p) >> 1;
-            for (int k = 0; k <= R2; ++k)
-                acc += h2p[2 * k + p] * loadv(u, (base + k) * n + f);
+    if (y >= RG && y + RB - 1 + RG < h && f >= C * RG && f + VW + C * RG <= n) {
+        floatv base = -g_sum * lanes(mean, f) - lanes(offset, f);
+        floatv acc[RB];
+        for (int b = 0; b < RB; ++b) acc[b] = base;
+        for (int dy = -RG; dy <= RG + RB - 1; ++dy)      // input rows y + dy
+            for (int dx = -RG; dx <= RG; ++dx) {
+                floatv v = loadv(a, (y + dy) * n + f + C * dx);
+                for (int b = 0; b < RB; ++b)           // output row y + b: its tap dy - b
+                    if (dy - b >= -RG && dy - b <= RG)
+                        acc[b] += g[(dy - b + RG) * (2 * RG + 1) + dx + RG] * v;
+            }
+        for (int b = 0; b < RB; ++b) {
+            if (has_coarse) {   // the coarse term's taps down the column: the same along the row
+                int uy = y + b + PAD - R2, p = uy & 1, base_row = (uy + p) >> 1;
+                for (int k = 0; k <= R2; ++k)
+                    acc[b] += h2p[2 * k + p] * loadv(u, (base_row + k) * n + f);
+            }
+            to_array(acc[b], r);
+            storev(out, (y + b) * n, f, n, r);
         }
-        to_array(acc, r);
     } else {
-        for (int k = 0; k < VW && f + k < n; ++k) {
-            int x = (f + k) / C, c = f + k - x * C;
-            r[k] = synth_px(a, h, w, mean[c], u, has_coarse, h2p, g, y, x, c) - offset[c];
+        for (int b = 0; b < RB && y + b < h; ++b) {
+            for (int k = 0; k < VW && f + k < n; ++k) {
+                int x = (f + k) / C, c = f + k - x * C;
+                r[k] = synth_px(a, h, w, mean[c], u, has_coarse, h2p, g, y + b, x, c) - offset[c];
+            }
+            storev(out, (y + b) * n, f, n, r);
         }
     }
-    storev(out, y * n, f, n, r);
 }
 
 // offset[c] = mean of level 0's synthesis over the canvas's border ring (one work item per channel)

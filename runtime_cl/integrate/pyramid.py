@@ -63,15 +63,15 @@ class PyramidIntegrator(Integrator):
     kernels : PyramidKernels, optional
         Default: the fitted ones (:func:`~runtime_cl.integrate.pyramid_model.load_kernels`).
     vector_width : {4, 8, 16}
-        Floats per work item of the row-wise kernels (default 8).
+        Floats per work item of the row-wise kernels (default 16).
     row_block : {1, 2}
-        Rows per work item of the synthesis, which share their input rows (default 2).
+        Rows per work item of the synthesis, which share their input rows (default 1).
     """
 
     summary = "convolution pyramid (Farbman et al. 2011) on the OpenCL device, fitted kernels"
 
-    def __init__(self, device=None, kernels: PyramidKernels | None = None, vector_width: int = 8,
-                 row_block: int = 2):
+    def __init__(self, device=None, kernels: PyramidKernels | None = None, vector_width: int = 16,
+                 row_block: int = 1):
         if vector_width not in (4, 8, 16):
             raise InputError(f"vector_width = {vector_width!r}: must be 4, 8 or 16")
         super().__init__(device or get_device())

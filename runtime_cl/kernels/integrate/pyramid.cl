@@ -8,55 +8,21 @@
 // their end, so a vector load at a row's last floats stays inside.
 // h2p is h2 with one 0 appended: the zero-insertion taps of a parity p are h2p[2t + p], t <= R2.
 
-// VW (4, 8 or 16) floats from a[i]: scalar loads that LLVM merges into one unaligned vector load
-// (PoCL's vloadn is a library call it never inlines, which costs more than the arithmetic here)
-#if VW == 16
-typedef float16 floatv;
-inline floatv loadv(__global const float *a, int i)
-{
-    return (float16)(a[i], a[i + 1], a[i + 2], a[i + 3], a[i + 4], a[i + 5], a[i + 6], a[i + 7],
-                     a[i + 8], a[i + 9], a[i + 10], a[i + 11], a[i + 12], a[i + 13], a[i + 14], a[i + 15]);
-}
-inline void to_array(floatv v, float *t)
-{
-    t[0] = v.s0; t[1] = v.s1; t[2] = v.s2; t[3] = v.s3; t[4] = v.s4; t[5] = v.s5; t[6] = v.s6; t[7] = v.s7;
-    t[8] = v.s8; t[9] = v.s9; t[10] = v.sa; t[11] = v.sb; t[12] = v.sc; t[13] = v.sd; t[14] = v.se; t[15] = v.sf;
-}
-#elif VW == 8
-typedef float8 floatv;
-inline floatv loadv(__global const float *a, int i)
-{
-    return (float8)(a[i], a[i + 1], a[i + 2], a[i + 3], a[i + 4], a[i + 5], a[i + 6], a[i + 7]);
-}
-inline void to_array(floatv v, float *t)
-{
-    t[0] = v.s0; t[1] = v.s1; t[2] = v.s2; t[3] = v.s3; t[4] = v.s4; t[5] = v.s5; t[6] = v.s6; t[7] = v.s7;
-}
-#else
-typedef float4 floatv;
-inline floatv loadv(__global const float *a, int i)
-{
-    return (float4)(a[i], a[i + 1], a[i + 2], a[i + 3]);
-}
-inline void to_array(floatv v, float *t)
-{
-    t[0] = v.s0; t[1] = v.s1; t[2] = v.s2; t[3] = v.s3;
-}
-#endif
+// VW (4, 8 or 16) floats at a[i], any alignment: a vector type aligned like a float, so the
+// compiler emits one unaligned vector load or store (PoCL's vloadn/vstoren are library calls it
+// never inlines, and VW scalar loads are not merged)
+typedef float floatv __attribute__((ext_vector_type(VW), aligned(4)));
+
+inline floatv loadv(__global const float *a, int i) { return *(__global const floatv *)(a + i); }
+
+inline void to_array(floatv v, float *t) { *(floatv *)t = v; }
 
 // (m[f % C], ..., m[(f + VW - 1) % C]): the canvas mean of the channels of floats f .. f + VW - 1
 inline floatv lanes(__global const float *m, int f)
 {
     float t[VW];
     for (int k = 0; k < VW; ++k) t[k] = m[(f + k) % C];
-#if VW == 16
-    return (float16)(t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8], t[9], t[10], t[11], t[12], t[13],
-                     t[14], t[15]);
-#elif VW == 8
-    return (float8)(t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7]);
-#else
-    return (float4)(t[0], t[1], t[2], t[3]);
-#endif
+    return *(floatv *)t;
 }
 
 // store floats i .. i + VW - 1 of a row of n floats starting at `row`, only those inside the row
@@ -64,7 +30,7 @@ inline void storev(__global float *out, int row, int i, int n, const float *t)
 {
     __global float *o = out + row + i;
     if (i + VW <= n) {
-        for (int k = 0; k < VW; ++k) o[k] = t[k];
+        *(__global floatv *)o = *(const floatv *)t;
     } else {
         for (int k = 0; i + k < n; ++k) o[k] = t[k];
     }

@@ -176,7 +176,7 @@ class PyramidIntegrator(Integrator):
             (hh, ww), (nh, nw) = shapes[level], shapes[level + 1]
             ev.append(kern["down_v"](q, *rows(ww * channels, nh), a[level], hh, ww,
                                      mean if level == 0 else zeros, t, nh, h1))
-            ev.append(kern["down_h"](q, *_grid(nw, nh), t, nh, ww, a[level + 1], nw, h1))
+            ev.append(kern["down_h"](q, *rows(2 * nw * channels, nh), t, nh, ww, a[level + 1], nw, h1))
         top = len(shapes) - 1
         th, tw = shapes[top]
         rb = self.row_block

@@ -76,32 +76,39 @@ __kernel void down_v(__global const float *a, int h, int w, __global const float
     storev(t, j * n, f, n, r);
 }
 
-inline void across_at(__global const float *t, int nh, int w, __global float *next, int nw,
-                      __constant float *h1, int j, int i, int guard)
-{
-    int x0 = 2 * i - R1 - PAD;
-    for (int c = 0; c < C; ++c) {
-        float s = 0.0f;
-        for (int k = 0; k <= 2 * R1; ++k) {
-            int x = x0 + k;
-            if (!guard || (x >= 0 && x < w))
-                s += h1[k] * t[(j * w + x) * C + c];
-        }
-        next[(j * nw + i) * C + c] = s;
-    }
-}
-
-// analysis, across the rows: next[j][i] = sum_k h1[k] t[j][2i + k - R1 - PAD] (next is nh x nw)
+// analysis, across the rows: next[j][i] = sum_k h1[k] t[j][2i + k - R1 - PAD] (next is nh x nw).
+// One work item per VW floats of the filtered row at fine positions x' = 2i - PAD (PAD is even,
+// so the kept samples are the even e / C below): it filters all of them as vectors and keeps
+// the even positions' floats.
 __kernel void down_h(__global const float *t, int nh, int w, __global float *next, int nw,
                      __constant float *h1)
 {
-    int i = get_global_id(0), j = get_global_id(1);
-    if (i >= nw || j >= nh) return;
-    int x0 = 2 * i - R1 - PAD;
-    if (x0 >= 0 && x0 + 2 * R1 < w)
-        across_at(t, nh, w, next, nw, h1, j, i, 0);
-    else
-        across_at(t, nh, w, next, nw, h1, j, i, 1);
+    int e0 = VW * get_global_id(0), j = get_global_id(1), n = w * C, span = 2 * nw * C;
+    if (e0 >= span || j >= nh) return;
+    int f0 = e0 - (PAD + R1) * C;          // float of the first tap of lane 0 in t's row
+    float r[VW];
+    if (f0 >= 0 && f0 + VW + 2 * R1 * C <= n) {
+        floatv acc = (floatv)(0.0f);
+        for (int k = 0; k <= 2 * R1; ++k)
+            acc += h1[k] * loadv(t, j * n + f0 + k * C);
+        to_array(acc, r);
+    } else {
+        for (int q = 0; q < VW; ++q) {
+            float s = 0.0f;
+            int fq = f0 + q, xq = (fq >= 0 ? fq / C : -((-fq + C - 1) / C)), c = fq - xq * C;
+            for (int k = 0; k <= 2 * R1; ++k) {
+                int x = xq + k;
+                if (x >= 0 && x < w)
+                    s += h1[k] * t[(j * w + x) * C + c];
+            }
+            r[q] = s;
+        }
+    }
+    for (int q = 0; q < VW && e0 + q < span; ++q) {
+        int xe = (e0 + q) / C;
+        if ((xe & 1) == 0)
+            next[(j * nw + (xe >> 1)) * C + (e0 + q - xe * C)] = r[q];
+    }
 }
 
 // synthesis, across the rows: u[j][x] = (h2 * up(s))[.][x + PAD] along x, u is ch x w (one work

@@ -88,3 +88,22 @@ def test_zero_in_zero_out(pyramid):
 def test_bad_shapes_are_input_errors(pyramid, shape):
     with pytest.raises(InputError, match="laplacian"):
         pyramid(np.zeros(shape, np.float32))
+
+
+@pytest.mark.parametrize("vector_width, row_block", [(4, 1), (8, 1), (16, 2)])
+def test_every_work_item_shape_is_the_same_operator(vector_width, row_block):
+    from runtime_cl.integrate.pyramid import PyramidIntegrator
+
+    lap = np.random.default_rng(9).standard_normal((71, 90, 3)).astype(np.float32)
+    got, _ = PyramidIntegrator(vector_width=vector_width, row_block=row_block)(lap)
+    want = pyramid_integrate_numpy(lap)
+    np.testing.assert_allclose(got, want, atol=2e-6 * np.abs(want).max())
+
+
+def test_work_item_options_are_checked():
+    from runtime_cl.integrate.pyramid import PyramidIntegrator
+
+    with pytest.raises(InputError, match="vector_width = 5"):
+        PyramidIntegrator(vector_width=5)
+    with pytest.raises(InputError, match="row_block = 3"):
+        PyramidIntegrator(row_block=3)

@@ -145,8 +145,9 @@ class PyramidIntegrator(Integrator):
             pairs = list(zip(shapes, shapes[1:]))
             t = new(max([nh * ww * channels for (_, ww), (nh, _) in pairs], default=1))
             u = new(max([ch * ww * channels for (_, ww), (ch, _) in pairs], default=1))
-            zeros = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.zeros(channels, np.float32))
-            small = [cl.Buffer(ctx, mf.READ_WRITE, channels * 4) for _ in range(2)]   # mean, offset
+            table = channels * self.vector_width        # lane tables of per-channel constants
+            zeros = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.zeros(table + 16, np.float32))
+            small = [cl.Buffer(ctx, mf.READ_WRITE, 4 * (table + 16)) for _ in range(2)]   # mean, offset
             sums = cl.Buffer(ctx, mf.READ_WRITE, h * channels * 4)
             self._buffers = {key: (shapes, a, s, t, u, zeros, small, sums)}   # one canvas size at a time
         return self._buffers[key]
@@ -171,7 +172,7 @@ class PyramidIntegrator(Integrator):
         q = self.device.queue
         up = cl.enqueue_copy(q, a[0], lap, is_blocking=False)
         ev = [kern["row_sums"](q, (-(-h // 16) * 16,), (16,), a[0], h, w, sums),
-              kern["finish_mean"](q, (channels,), None, sums, h, w, mean)]
+              kern["finish_mean"](q, (1,), None, sums, h, w, mean)]
         for level in range(len(shapes) - 1):
             (hh, ww), (nh, nw) = shapes[level], shapes[level + 1]
             ev.append(kern["down_v"](q, *rows(ww * channels, nh), a[level], hh, ww,
@@ -186,7 +187,7 @@ class PyramidIntegrator(Integrator):
             (hh, ww), (ch, cw) = shapes[level], shapes[level + 1]
             ev.append(kern["up_h"](q, *_grid(ww, ch), s[level + 1], ch, cw, u, ww, h2p))
             if level == 0:   # the ring's mean first, so level 0 is written once, shifted
-                ev.append(at(0, per_g)["ring_mean"](q, (channels,), None, a[0], hh, ww, mean, u, h2p,
+                ev.append(at(0, per_g)["ring_mean"](q, (1,), None, a[0], hh, ww, mean, u, h2p,
                                                     at(0, gs), offset))
             ev.append(at(level, per_g)["synth"](q, *rows(ww * channels, -(-hh // rb)), a[level], hh, ww,
                                                 mean if level == 0 else zeros, u, 1, h2p, at(level, gs),

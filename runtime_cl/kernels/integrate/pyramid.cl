@@ -17,13 +17,10 @@ inline floatv loadv(__global const float *a, int i) { return *(__global const fl
 
 inline void to_array(floatv v, float *t) { *(floatv *)t = v; }
 
-// (m[f % C], ..., m[(f + VW - 1) % C]): the canvas mean of the channels of floats f .. f + VW - 1
-inline floatv lanes(__global const float *m, int f)
-{
-    float t[VW];
-    for (int k = 0; k < VW; ++k) t[k] = m[(f + k) % C];
-    return *(floatv *)t;
-}
+// Per-channel constants (the canvas mean, the ring's offset) travel as lane tables of C x VW
+// floats, tab[c0 VW + k] = value[(c0 + k) % C]: the VW floats from float f of a row start with
+// channel f % C, so their values are the VW floats at tab + (f % C) VW, and value[c] = tab[c VW].
+inline floatv lanes(__global const float *tab, int f) { return loadv(tab, (f % C) * VW); }
 
 // store floats i .. i + VW - 1 of a row of n floats starting at `row`, only those inside the row
 inline void storev(__global float *out, int row, int i, int n, const float *t)
@@ -48,23 +45,27 @@ __kernel void row_sums(__global const float *a, int h, int w, __global float *su
     for (int c = 0; c < C; ++c) sums[y * C + c] = s[c];
 }
 
-// mean[c] = (sum of the h row sums) / (h w); one work item per channel
-__kernel void finish_mean(__global const float *sums, int h, int w, __global float *mean)
+// the lane table of the canvas mean, (sum of the h row sums) / (h w) per channel; one work item
+__kernel void finish_mean(__global const float *sums, int h, int w, __global float *mean_tab)
 {
-    int c = get_global_id(0);
-    float s = 0.0f;
-    for (int y = 0; y < h; ++y) s += sums[y * C + c];
-    mean[c] = s / ((float)h * (float)w);
+    float m[C];
+    for (int c = 0; c < C; ++c) {
+        float s = 0.0f;
+        for (int y = 0; y < h; ++y) s += sums[y * C + c];
+        m[c] = s / ((float)h * (float)w);
+    }
+    for (int c0 = 0; c0 < C; ++c0)
+        for (int k = 0; k < VW; ++k) mean_tab[c0 * VW + k] = m[(c0 + k) % C];
 }
 
 // analysis, down the columns: t[j][.] = sum_k h1[k] (a[2j + k - R1 - PAD][.] - mean), rows outside
 // the level being zero; t is nh x w. One work item per 4 floats of a row.
-__kernel void down_v(__global const float *a, int h, int w, __global const float *mean,
+__kernel void down_v(__global const float *a, int h, int w, __global const float *mean_tab,
                      __global float *t, int nh, __constant float *h1)
 {
     int f = VW * get_global_id(0), j = get_global_id(1), n = w * C;
     if (f >= n || j >= nh) return;
-    floatv m = lanes(mean, f), acc = (floatv)(0.0f);
+    floatv m = lanes(mean_tab, f), acc = (floatv)(0.0f);
     int y0 = 2 * j - R1 - PAD;
     for (int k = 0; k <= 2 * R1; ++k) {
         int y = y0 + k;
@@ -152,19 +153,19 @@ inline float synth_px(__global const float *a, int h, int w, float m, __global c
     return has_coarse ? s + down_up(u, w, h2p, y, x, c) : s;
 }
 
-// one level of the synthesis minus offset[c] (level 0: its border ring's mean; else zeros):
+// one level of the synthesis minus the offset (level 0: its border ring's mean; else zeros):
 // out = g * (a - mean) + h2 * up(coarse), the latter from u = up_h(coarse). One work item per
 // VW floats of RB (1 or 2) rows, which share their input rows' loads; those whose g taps all
 // fall inside the level take the unchecked path.
-__kernel void synth(__global const float *a, int h, int w, __global const float *mean,
+__kernel void synth(__global const float *a, int h, int w, __global const float *mean_tab,
                     __global const float *u, int has_coarse, __constant float *h2p,
-                    __constant float *g, float g_sum, __global const float *offset, __global float *out)
+                    __constant float *g, float g_sum, __global const float *offset_tab, __global float *out)
 {
     int f = VW * get_global_id(0), y = RB * get_global_id(1), n = w * C;
     if (f >= n || y >= h) return;
     float r[VW];
     if (y >= RG && y + RB - 1 + RG < h && f >= C * RG && f + VW + C * RG <= n) {
-        floatv base = -g_sum * lanes(mean, f) - lanes(offset, f);
+        floatv base = -g_sum * lanes(mean_tab, f) - lanes(offset_tab, f);
         floatv acc[RB];
         for (int b = 0; b < RB; ++b) acc[b] = base;
         for (int dy = -RG; dy <= RG + RB - 1; ++dy)      // input rows y + dy
@@ -187,23 +188,28 @@ __kernel void synth(__global const float *a, int h, int w, __global const float 
         for (int b = 0; b < RB && y + b < h; ++b) {
             for (int k = 0; k < VW && f + k < n; ++k) {
                 int x = (f + k) / C, c = f + k - x * C;
-                r[k] = synth_px(a, h, w, mean[c], u, has_coarse, h2p, g, y + b, x, c) - offset[c];
+                r[k] = synth_px(a, h, w, mean_tab[c * VW], u, has_coarse, h2p, g, y + b, x, c)
+                       - offset_tab[c * VW];
             }
             storev(out, (y + b) * n, f, n, r);
         }
     }
 }
 
-// offset[c] = mean of level 0's synthesis over the canvas's border ring (one work item per channel)
-__kernel void ring_mean(__global const float *a, int h, int w, __global const float *mean,
+// the lane table of level 0's synthesis's mean over the canvas's border ring; one work item
+__kernel void ring_mean(__global const float *a, int h, int w, __global const float *mean_tab,
                         __global const float *u, __constant float *h2p, __constant float *g,
-                        __global float *offset)
+                        __global float *offset_tab)
 {
-    int c = get_global_id(0);
-    float m = mean[c], s = 0.0f;
-    for (int x = 0; x < w; ++x)
-        s += synth_px(a, h, w, m, u, 1, h2p, g, 0, x, c) + synth_px(a, h, w, m, u, 1, h2p, g, h - 1, x, c);
-    for (int y = 1; y < h - 1; ++y)
-        s += synth_px(a, h, w, m, u, 1, h2p, g, y, 0, c) + synth_px(a, h, w, m, u, 1, h2p, g, y, w - 1, c);
-    offset[c] = s / (float)(2 * w + 2 * (h - 2));
+    float o[C];
+    for (int c = 0; c < C; ++c) {
+        float m = mean_tab[c * VW], s = 0.0f;
+        for (int x = 0; x < w; ++x)
+            s += synth_px(a, h, w, m, u, 1, h2p, g, 0, x, c) + synth_px(a, h, w, m, u, 1, h2p, g, h - 1, x, c);
+        for (int y = 1; y < h - 1; ++y)
+            s += synth_px(a, h, w, m, u, 1, h2p, g, y, 0, c) + synth_px(a, h, w, m, u, 1, h2p, g, y, w - 1, c);
+        o[c] = s / (float)(2 * w + 2 * (h - 2));
+    }
+    for (int c0 = 0; c0 < C; ++c0)
+        for (int k = 0; k < VW; ++k) offset_tab[c0 * VW + k] = o[(c0 + k) % C];
 }

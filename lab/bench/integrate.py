@@ -28,6 +28,7 @@ times as median, min and max over repeats. The pyramid's OpenCL event times are 
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -106,7 +107,7 @@ def measure_case(lap: np.ndarray, integrators: dict, repeats: int, truth: np.nda
     return row
 
 
-def bench_integrate(repeats: int = 5, sizes=(1024, 4096)) -> "Path":  # noqa: F821
+def bench_integrate(repeats: int = 5, sizes=(1024, 4096)) -> Path:
     """Run the benchmark (module docstring) and write ``reports/bench/integrate-*.json``."""
     from runtime_cl.device.opencl import get_device
     from runtime_cl.integrate import get_integrator, integrator_names

@@ -26,6 +26,7 @@ typical use:
   splatlab render in.exr --method polygon --aperture hexagon --out out.exr   exact polygonal bokeh
   splatlab render in.exr --method polygon --layers 8 --out out.exr   ... with occlusion (depth layers)
   splatlab render in.exr --db simple_lens.spdb --integrator pyramid --out out.exr   convolution pyramid
+  splatlab render peeled.exr --method layered --rays 100 --out out.exr   lens rays through layers
   splatlab bench runtime                         method timings and kernel throughput -> reports/bench/
   splatlab doctor                                what is installed, what is missing and how to fix it
 
@@ -176,7 +177,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "clover, star; default: the camera header's iris, else hexagon)")
     p.add_argument("--layers", type=int, metavar="N",
                    help="polygon: occlusion with N global depth layers (LSR18), from the EXR's "
-                        "layerN.* channels when it has them, else from its flat image")
+                        "layerN.* channels when it has them, else from its flat image; layered: trace "
+                        "only the nearest N of the EXR's layers")
+    p.add_argument("--rays", type=_int_or_text, metavar="N",
+                   help="layered: lens rays per pixel (default 32), traced through the EXR's layerN.* "
+                        "layers when it has them (--layers N: only the nearest N), else its flat image")
     p.add_argument("--directions", type=int, default=2, metavar="M",
                    help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
     p.add_argument("--edges", type=int, metavar="N",
@@ -204,8 +209,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "MHU21 exact polygonal bokeh (time vs radius, against brute force / Laplacian / "
                         "dx dy, uniform blur vs FFT; not part of all); rotation: the cost of per-pixel PSF "
                         "rotation, spreadlets with a constant and a per-pixel angle over without (512^2; "
-                        "not part of all); integrate: the Poisson integrators (exact, fft32, pyramid) at "
-                        "1024^2 and 4096^2, errors against the exact solve and time ratios (not part of all); "
+                        "not part of all); layered: lens rays through the peeled layers of --scene (default "
+                        "scenes/foreground.toml) for 8..256 rays and 1..L layers against Mitsuba; layer_cost: layers 5-8 "
+                        "against 1-4 of the layered pass on an 8-layer numpy scene (neither part of all); "
+                        "integrate: the Poisson integrators (exact, fft32, pyramid) at 1024^2 and 4096^2, errors "
+                        "against the exact solve and time ratios (not part of all); "
                         "all: precompute and runtime")
     p.add_argument("--quick", action="store_true",
                    help="polygon: small sizes only (a smoke run in seconds); integrate: 1024^2 only")

@@ -1,10 +1,13 @@
 """Implementations of the ``splatlab`` subcommands (argument parsing lives in :mod:`lab.cli`)."""
 from __future__ import annotations
 
+import inspect
 import json
 import shutil
 import sys
 from pathlib import Path
+
+from runtime_cl.atomic_file import atomic_path, check_output, check_output_dir
 
 from .errors import UserError
 from .paths import DEMO_SCENE, REPORTS
@@ -49,6 +52,10 @@ def cmd_precompute(args) -> int:
     from .precompute.target import load_target_model, resolve_target
 
     executor = _executor(args)
+    if args.out is not None:
+        check_output(args.out, "--out", suffix=".spdb")
+    if args.atlas is not None:
+        check_output_dir(args.atlas, "--atlas")
     target = resolve_target(args.target)
     if target.kind == "model":
         models = [load_target_model(target.name, args.sets)]
@@ -74,8 +81,8 @@ def cmd_precompute(args) -> int:
             state = f"built in {r.seconds:.1f} s: {r.cells} PSFs on {r.executor}{pace}"
         print(f"{model.name}: {r.path} ({state})")
         if args.out:
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(r.path, args.out)
+            with atomic_path(args.out, fsync=True, what="--out") as tmp:
+                shutil.copyfile(r.path, tmp)
             print(f"{model.name}: copied to {args.out}")
         if args.atlas:
             from runtime_cl.psf.database import SpreadletDatabase
@@ -93,8 +100,7 @@ def cmd_reference(args) -> int:
 
     executor = _executor(args)
     scene, plan = load_scene_and_plan(args.scene)
-    out = args.out_dir or default_out_dir(scene)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_output_dir(args.out_dir or default_out_dir(scene))   # created by the writers
     with executor:
         image, reference, _ = inputs_and_reference(scene, plan, progress=not args.quiet, executor=executor)
     write_labelled(out / "input.exr", image)
@@ -138,6 +144,8 @@ def _check_render_options(args, cls) -> None:
                         f"MODEL --out FILE); only --method {free} work without one")
     if cls.database_models == () and args.db is not None:
         raise UserError(f"--db {args.db}: --method {args.method} uses no PSF database; drop --db")
+    if args.rays is not None and "rays" not in inspect.signature(cls.configure).parameters:
+        raise UserError(f"--rays {args.rays}: --method {args.method} traces no lens rays; drop --rays")
     if args.far_db is not None and not cls.far_field:
         raise UserError(f"--far-db {args.far_db}: --method {args.method} does not add far fields; use it with "
                         "--method spreadlets, splat or filter and a volume --db")
@@ -156,6 +164,7 @@ def cmd_render(args) -> int:
 
     cls = get_pass(args.method)
     _check_render_options(args, cls)
+    check_output(args.out, "--out", (args.input, args.db, args.far_db, args.camera), ".exr")
     image = read_input(args.input, args.camera)
     db = None if args.db is None else SpreadletDatabase.load(args.db)
     if db is not None:
@@ -164,9 +173,16 @@ def cmd_render(args) -> int:
     if args.integrator is not None:
         options["integrator"] = args.integrator
         said = f" ({args.integrator} integration)"
-    if args.layers is not None:
+    takes = inspect.signature(cls.configure).parameters
+    if args.layers is not None and "max_layers" in takes:   # a pass that traces the input's own layers
+        options["max_layers"] = args.layers
+    elif args.layers is not None:
         options["layers"] = args.layers
         options["layered_input"] = cls.layered and bool(image.layers(str(args.input)))
+    if args.rays is not None:
+        options["rays"] = args.rays
+    if "rays" in takes:   # lens rays: through the layers the input has
+        options.setdefault("layered_input", bool(image.layers(str(args.input))))
     if cls.draws_aperture:
         aperture = _render_aperture(args, image)
         options["aperture"] = aperture.splatter
@@ -183,6 +199,9 @@ def cmd_render(args) -> int:
     c = timing.counts
     if "max_radius_px" in c:
         said += f", radius <= {c['max_radius_px']:.1f} px"
+    if "rays_hit" in c:
+        said += (f", {c['rays']} rays per pixel through {c['input_layers']} layer(s) (occupancy "
+                 f"{', '.join(f'{x:.2f}' for x in c['occupancy'])}), {c['rays_left_image']} rays left the image")
     if "used_layers" in c:
         said += (f", {c['used_layers']} of {c['depth_layers']} depth layers used "
                  f"({'layered' if options['layered_input'] else 'flat'} input)")
@@ -223,6 +242,8 @@ def cmd_report(args) -> int:
     names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
     if len(set(names)) < len(names):
         raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
+    if len(scenes) > 1:
+        check_output_dir(args.out_dir or REPORTS / "table2")   # before hours of work
     with _executor(args) as executor:
         if len(scenes) == 1:
             return _report(scenes[0], args.out_dir, args.baseline, executor, args.noise_floor)[0]

@@ -8,9 +8,12 @@ table for messages, e.g. ``"scenes/demo.toml [psf.simple_lens]"``.
 from __future__ import annotations
 
 import dataclasses
+import math
 import typing
 
 from .errors import UserError
+
+MAX_SIDE_PX = 16384    # pixels a side of a scene or labelled image: an RGB float image of 16384^2 is 3.2 GB
 
 
 def _check_type(value, annotation, where, key):
@@ -91,3 +94,25 @@ def to_table(obj) -> dict:
             v = [list(x) if isinstance(x, tuple) else x for x in v]
         out[f.name] = v
     return out
+
+
+# Tables where ``inf`` means something (a lens's flat face: radius inf, in [camera] and in
+# [psf.physical_lens]); NaN never does.
+INF_ALLOWED = ("surfaces",)
+
+
+def check_finite(data, where: str, key: str = "", allow_inf=INF_ALLOWED, _tables: tuple = ()) -> None:
+    """UserError at the first NaN or infinite number anywhere in ``data`` (a parsed TOML file),
+    naming its key (e.g. ``shapes #3.center[0]``); ``inf`` passes under a key in ``allow_inf``."""
+    if isinstance(data, dict):
+        for k, value in data.items():
+            check_finite(value, where, f"{key}.{k}" if key else str(k), allow_inf, _tables + (str(k),))
+    elif isinstance(data, list):
+        for i, value in enumerate(data):
+            part = f" #{i + 1}" if isinstance(value, dict) else f"[{i}]"
+            check_finite(value, where, key + part, allow_inf, _tables)
+    elif isinstance(data, float) and not math.isfinite(data):
+        if math.isinf(data) and set(_tables) & set(allow_inf):
+            return
+        raise UserError(f"{where}: {key} = {data}: must be a finite number (NaN and inf are no position, "
+                        "size or setting); write a real value")

@@ -13,8 +13,11 @@ the layer's coverage A (:func:`image_layers`); the top-level R, G, B, A, Z stay 
 from __future__ import annotations
 
 import json
-import math
+import os
 import re
+import sys
+import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,14 +25,19 @@ import numpy as np
 import OpenEXR
 
 from runtime_cl.atomic_file import atomic_path
+from runtime_cl.input_file import open_input
+from runtime_cl.json_values import is_number, loads
 
 from .cameras import header_camera
+from .config import MAX_SIDE_PX
 from .errors import UserError
 
 CAMERA_ATTR = "splatlab.camera"
 FORMAT_ATTR = "splatlab.format"
 FORMAT = "labelled-pixels/1"
 CORE = ("R", "G", "B", "A", "Z")
+EXR_MAGIC = b"\x76\x2f\x31\x01"
+MAX_CHANNELS = 1024     # 5 per layer: 200 layers, far beyond LES09's handful
 _LAYER = re.compile(r"layer(\d+)\.(.+)")
 
 
@@ -137,7 +145,7 @@ def image_layers(channels: dict, source: str) -> list[ImageLayer]:
 def _check_shutter(data: dict, source: str):
     shutter = data.get("shutter", [0.0, 1.0])
     ok = (isinstance(shutter, list) and len(shutter) == 2
-          and all(isinstance(t, (int, float)) and math.isfinite(t) for t in shutter) and shutter[0] <= shutter[1])
+          and all(is_number(t) for t in shutter) and shutter[0] <= shutter[1])
     if not ok:
         raise UserError(f"{source}: shutter = {shutter!r} must be [open, close] with open <= close")
 
@@ -150,14 +158,43 @@ def validate_camera(data, source: str) -> dict:
     return data
 
 
+@contextmanager
+def _c_output(lines: list):
+    """Catch what OpenEXR's C++ code prints on the process's stdout and stderr (a warning per
+    damaged chunk) into ``lines``, so a bad file ends in one message, not several."""
+    sys.stdout.flush(), sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 1), os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved[0], 1), os.dup2(saved[1], 2)
+            os.close(saved[0]), os.close(saved[1])
+            sink.seek(0)
+            lines.extend(line.strip() for line in sink.read().decode("utf-8", "replace").splitlines() if line.strip())
+
+
+def _reason(exc: Exception, printed: list, tmp=None, path=None) -> str:
+    """One line saying why OpenEXR failed: its exception or, more telling, what it printed."""
+    coded = [line[line.index("(EXR_ERR"):] for line in printed if "(EXR_ERR" in line]
+    text = (coded or printed or str(exc).splitlines() or [type(exc).__name__])[-1]
+    return text.replace(str(tmp), str(path)) if tmp is not None else text
+
+
 def _atomic_write(path, header: dict, channels: dict):
     """Write to a temporary file beside ``path`` then rename, so readers never see half a file."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **header}
     chans = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
-    with atomic_path(path) as tmp, OpenEXR.File(header, chans) as exr:
-        exr.write(str(tmp))
+    with atomic_path(path, what="EXR output") as tmp, OpenEXR.File(header, chans) as exr:
+        printed: list = []
+        try:
+            with _c_output(printed):
+                exr.write(str(tmp))
+        except RuntimeError as exc:   # OpenEXR reports a full disk or an I/O error this way
+            raise UserError(f"EXR output {path}: cannot be written ({_reason(exc, printed, tmp, path)}); "
+                            "free disk space or write to another folder") from None
 
 
 def write_labelled(path, image: LabelledImage):
@@ -189,20 +226,48 @@ def write_rgb(path, rgb: np.ndarray, header: dict | None = None):
     _atomic_write(path, dict(header or {}), {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
 
 
+def _layout(path, header: dict) -> None:
+    """Refuse, before any pixel is read, what a labelled image cannot be: a size beyond
+    :data:`~lab.config.MAX_SIDE_PX`, too many channels, sub-sampled channels."""
+    lo, hi = (np.asarray(v, dtype=np.int64) for v in header["dataWindow"])
+    w, h = (hi - lo + 1).tolist()
+    if not (1 <= w <= MAX_SIDE_PX and 1 <= h <= MAX_SIDE_PX):
+        raise UserError(f"{path}: data window {w} x {h} pixels; a labelled image has 1 to {MAX_SIDE_PX} pixels "
+                        "a side (the largest scene resolution)")
+    chans = header.get("channels", [])
+    if len(chans) > MAX_CHANNELS:
+        raise UserError(f"{path}: {len(chans)} channels, more than {MAX_CHANNELS} (5 per layer and a few "
+                        "more); write fewer layers")
+    sub = sorted(c.name for c in chans if (c.xSampling, c.ySampling) != (1, 1))
+    if sub:
+        raise UserError(f"{path}: channel(s) {sub} are sub-sampled (x/y sampling "
+                        f"{sorted({(c.xSampling, c.ySampling) for c in chans if c.name in sub})}); write every "
+                        "channel at full resolution (x/y sampling 1)")
+
+
 def _open(path) -> tuple[dict, dict]:
-    path = Path(path)
-    if not path.is_file():
-        raise UserError(f"{path}: no such file; check the path")
-    try:
-        with OpenEXR.File(str(path), separate_channels=True) as exr:
-            header = dict(exr.header())
-            channels = {name: ch.pixels for name, ch in exr.channels().items()}
-    except Exception as exc:  # noqa: BLE001 - OpenEXR raises RuntimeError for anything unreadable
-        raise UserError(f"{path}: not a readable OpenEXR file ({str(exc).splitlines()[0]}); "
-                        "re-export it as a scanline or tiled float EXR") from None
+    printed: list = []
+    with open_input(path, "EXR", "pass an OpenEXR file (.exr)") as fh:
+        if fh.read(4) != EXR_MAGIC:
+            raise UserError(f"{path}: not a readable OpenEXR file (it does not start with the EXR magic number); pass "
+                            "a labelled-pixel .exr (from `splatlab reference SCENE` or a renderer's EXR output)")
+        fh.seek(0)
+        try:
+            with _c_output(printed), OpenEXR.File(fh, header_only=True) as exr:
+                header = dict(exr.header())
+            _layout(path, header)
+            fh.seek(0)
+            with _c_output(printed), OpenEXR.File(fh, separate_channels=True) as exr:
+                channels = {name: ch.pixels for name, ch in exr.channels().items()}
+        except UserError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - OpenEXR raises RuntimeError, ValueError, KeyError ... for a bad file
+            raise UserError(f"{path}: not a readable OpenEXR file ({_reason(exc, printed)}); "
+                            "re-export it as a scanline or tiled float EXR") from None
     for name, pixels in channels.items():
-        if pixels.dtype not in (np.float16, np.float32):
-            raise UserError(f"{path}: channel {name} is {pixels.dtype}; use half or float channels")
+        if not isinstance(pixels, np.ndarray) or pixels.dtype not in (np.float16, np.float32):
+            raise UserError(f"{path}: channel {name} is {getattr(pixels, 'dtype', type(pixels).__name__)}; "
+                            "use half or float channels")
     return header, {name: np.asarray(p, dtype=np.float32) for name, p in channels.items()}
 
 
@@ -257,13 +322,7 @@ def _header_camera(path, header: dict) -> dict:
     if raw is None:
         raise UserError(f"{path}: no '{CAMERA_ATTR}' header, so the lens is unknown; pass the camera "
                         "with --camera FILE.toml (a file with a [camera] table)")
-    if isinstance(raw, bytes):
-        raw = raw.decode("utf-8", "replace")
-    try:
-        data = json.loads(raw)
-    except (TypeError, json.JSONDecodeError) as exc:
-        raise UserError(f"{path}: the '{CAMERA_ATTR}' header is not JSON ({exc}); pass the camera "
-                        "with --camera FILE.toml") from None
+    data = loads(raw, f"{path} header '{CAMERA_ATTR}'", "pass the camera with --camera FILE.toml")
     return validate_camera(data, f"{path} header '{CAMERA_ATTR}'")
 
 
@@ -285,8 +344,9 @@ def read_labelled(path, camera: dict | None = None) -> LabelledImage:
     """
     header, channels = _open(path)
     fmt = header.get(FORMAT_ATTR, FORMAT)
-    if fmt != FORMAT:
-        raise UserError(f"{path}: {FORMAT_ATTR} = {fmt!r}, this version reads {FORMAT!r}; "
+    if fmt != FORMAT:   # not repr() of a non-string: OpenEXR's opaque attributes may not print
+        shown = repr(fmt) if isinstance(fmt, str) else f"an attribute of type {type(fmt).__name__}"
+        raise UserError(f"{path}: {FORMAT_ATTR} = {shown}, this version reads {FORMAT!r}; "
                         "re-render the input with this splatlab")
     _require(path, channels, "RGB", "a labelled-pixel EXR needs linear R, G, B radiance")
     if "Z" not in channels:

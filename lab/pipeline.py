@@ -14,6 +14,8 @@ from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 
+from runtime_cl.atomic_file import check_output, check_output_dir, remove_stale_temps
+
 from .cache_key import code_digest
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
 from .parallel import Executor
@@ -56,8 +58,8 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
     from .report.metrics import psnr, ssim
 
     executor = Executor() if executor is None else executor
-    folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"   # made by the first write
+    remove_stale_temps(folder)
     info = {"cache": str(folder)}
     input_path, ref_path = folder / "input.exr", folder / "reference.exr"
     if input_path.exists():
@@ -119,8 +121,12 @@ def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool 
 
 
 def load_scene_and_plan(path) -> tuple:
+    from .psf_settings import check_tables
+
     scene = load_scene(path)
-    return scene, make_plan(scene)
+    plan = make_plan(scene)
+    check_tables(scene, plan.psf_models)   # a bad [psf.*] setting fails before any render
+    return scene, plan
 
 
 def default_out_dir(scene: Scene) -> Path:
@@ -143,7 +149,8 @@ def report_scene(scene: Scene, plan: Plan, out_dir=None, baseline=None, progress
     """:func:`run_report` on a loaded scene and its plan."""
     from .report.build import assemble_report
 
-    out_dir = Path(out_dir) if out_dir else default_out_dir(scene)
+    out_dir = check_output_dir(out_dir if out_dir else default_out_dir(scene))   # before hours of work
+    check_output(out_dir / "report.json", "--out-dir", (baseline,))
     baseline_report = None
     if baseline is not None:
         from .report.regress import load_report

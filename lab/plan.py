@@ -121,6 +121,12 @@ def make_plan(scene) -> Plan:
     inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
                                        "centres, camera in the EXR header"
                    + (", at mid-shutter with motion.X, motion.Y (open -> close)" if moves else "")),)
+    if r.peel_layers is not None:
+        inputs += (Step("peeled_layers", f"layer0..{r.peel_layers - 1}.R,G,B,A,Z ({r.input_spp} spp): LES10's "
+                                         "depth peeling from the lens centre past the umbra offset"),)
+    if r.peel_layers is not None and "layered" not in rule["runtime_passes"]:
+        skipped.append(Step("layered (lens rays through the peeled layers)", "this camera's plan traces no "
+                                                                            "lens rays (a round thin lens only)"))
     layers = scene.input_layers()
     if layers and moves:
         raise UserError(f"{scene.source} [[shapes]] layer: the layered input shows one instant and the scene "

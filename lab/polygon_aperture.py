@@ -55,6 +55,22 @@ class PolygonAperture:
     rectify_s: float
 
 
+MAX_DIRECTIONS_M = 8   # D(8) has 88 edge directions, each a directional prefix sum per splat
+MAX_EDGES = 256        # rectification time grows with N; 256 edges is beyond a visible polygon
+
+
+def check_options(directions_m, edges) -> None:
+    """``--directions M`` in [1, 8] and ``--edges N`` in [3, 256] (None: the default), as the
+    command line names them."""
+    if isinstance(directions_m, bool) or not isinstance(directions_m, int) or not 1 <= directions_m <= MAX_DIRECTIONS_M:
+        raise UserError(f"--directions {directions_m}: edge directions take run and rise up to M, an integer "
+                        f"in [1, {MAX_DIRECTIONS_M}] (|D(M)| grows as M^2 and each direction is a prefix sum); "
+                        "MHU21 uses 2")
+    if edges is not None and (isinstance(edges, bool) or not isinstance(edges, int) or not 3 <= edges <= MAX_EDGES):
+        raise UserError(f"--edges {edges}: the rectified aperture's most edges, an integer in [3, {MAX_EDGES}] "
+                        "(a polygon needs 3; rectification time grows with N), e.g. --edges 8")
+
+
 def polygon_aperture(name: str = "hexagon", directions_m: int = 2, edges: int | None = None,
                      device=None) -> PolygonAperture:
     """The built-in shape ``name``'s rectified polygon and its splatter.
@@ -80,6 +96,7 @@ def polygon_aperture(name: str = "hexagon", directions_m: int = 2, edges: int | 
     """
     from runtime_cl.polygon.shapes import SHAPES, SHIPPED_DIRECTIONS_M, shape, unit_polygon
 
+    check_options(directions_m, edges)
     if name not in SHAPES:
         raise UserError(f"--aperture {name!r}: unknown shape; choose one of {', '.join(SHAPES)}")
     n = default_edges(name) if edges is None else edges
@@ -97,6 +114,7 @@ def iris_aperture(iris, directions_m: int = 2, edges: int | None = None, device=
     directions_m, edges, device
         As for :func:`polygon_aperture`; ``edges`` defaults to the outline's vertices, at most 16.
     """
+    check_options(directions_m, edges)
     outline = iris.outline() * [1.0, -1.0]        # lens plane (y up) -> image (y down), upright
     n = min(len(outline), 16) if edges is None else edges
     return _rectified(f"iris{iris.blades}", outline, directions_m, n, device)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+from runtime_cl.json_values import is_number
+
 from .errors import UserError
 
 __all__ = ["SCENE_SETTINGS", "model_table"]
@@ -41,7 +43,8 @@ def _coc_range(table: dict, scene, image) -> dict:
     if "max_coc_px" not in table:
         needed = coc_range(image, scene.camera.thin_lens()).max_abs_px
         table["max_coc_px"] = float(max(8, 8 * math.ceil(needed / 8.0)))
-    table.setdefault("psf_resolution", min_psf_resolution(table["max_coc_px"]))
+    if is_number(table["max_coc_px"]) and table["max_coc_px"] > 0:   # else the model's check names it
+        table.setdefault("psf_resolution", min_psf_resolution(table["max_coc_px"]))
     return table
 
 
@@ -73,12 +76,13 @@ def _combined(table: dict, scene, image) -> dict:
             table["max_coc_px"] = 1.0
         else:
             _coc_range(table, scene, image)
-            del table["psf_resolution"]
+            table.pop("psf_resolution", None)
     if "max_motion_px" not in table:
         longest = float(np.hypot(*np.moveaxis(read_motion(image, scene.source, "combined"), -1, 0)).max())
         table["max_motion_px"] = float(max(8, 8 * math.ceil(longest / 8.0)))
-    table.setdefault("psf_resolution", min_combined_resolution(
-        table["max_coc_px"], table["max_motion_px"], table.get("motion_direction_deg", 0.0)))
+    coc, motion, angle = table["max_coc_px"], table["max_motion_px"], table.get("motion_direction_deg", 0.0)
+    if is_number(coc) and coc > 0 and is_number(motion) and motion >= 0 and is_number(angle):  # else the model names it
+        table.setdefault("psf_resolution", min_combined_resolution(coc, motion, angle))
     return table
 
 
@@ -114,7 +118,14 @@ def near_window_px(scene) -> int:
     from .psf_tracing.models.simple_lens import PSF_MARGIN_PX
     from .psf_tracing.models.volume_config import VolumeConfig
 
-    return int(scene.psf.get("volume", {}).get("psf_resolution", VolumeConfig.psf_resolution)) // 2 - PSF_MARGIN_PX
+    from .psf_tracing.models.common import check_number
+
+    resolution = scene.psf.get("volume", {}).get("psf_resolution", VolumeConfig.psf_resolution)
+    try:
+        check_number("psf_resolution", resolution, integer=True)
+    except UserError as exc:
+        raise UserError(f"{scene.source} [psf.volume]: {exc}") from None
+    return resolution // 2 - PSF_MARGIN_PX
 
 
 def far_field_needed(scene) -> bool:
@@ -167,6 +178,38 @@ def _physical_lens(table: dict, scene, image) -> dict:
         table["psf_resolution"] = load_model("physical_lens", table, f"{scene.source} [psf.physical_lens]"
                                              ).required_resolution()
     return table
+
+
+class _NeedsInput(Exception):
+    """A setting depends on the labelled input, which :func:`check_tables` does not have."""
+
+
+class _NoInput:
+    """Stands in for the labelled input in :func:`check_tables`: any use of it says so."""
+
+    def __getattr__(self, name):
+        raise _NeedsInput(name)
+
+
+def check_tables(scene, models) -> None:
+    """Validate the scene's ``[psf.<model>]`` tables before anything is rendered, each one whose
+    settings do not depend on the labelled input (the scene gives what the input would decide):
+    a bad setting then fails in a second, not after the input and reference renders. The other
+    tables are checked by :func:`model_table` once the input exists.
+
+    Raises
+    ------
+    UserError
+        A model's own checks, naming the scene file and ``[psf.<model>]``.
+    """
+    from .psf_tracing.models import load_model
+
+    for name in models:
+        try:
+            table = model_table(scene, name, _NoInput())
+        except _NeedsInput:
+            continue
+        load_model(name, table, f"{scene.source} [psf.{name}]")
 
 
 # Model name -> fill(table, scene, labelled input) -> table.

@@ -11,17 +11,36 @@ Units: positions in metres, focal length and sensor width in millimetres, angles
 """
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass, field
-from pathlib import Path
+
+from runtime_cl.input_file import read_text
 
 from .cameras import Camera, parse_camera
-from .config import from_table, to_table
+from .config import MAX_SIDE_PX, check_finite, from_table, to_table
 from .errors import UserError
 from .medium import Medium
 from .scene_objects import Emitter, Material, Shape, parse_material, parse_shape, strip_none
 
 SECTIONS = ("scene", "camera", "render", "materials", "shapes", "emitters", "medium", "psf", "precompute")
+MAX_SCENE_CHARS = 1 << 20   # scenes are a few kB; a megabyte is not a scene file
+RENDER_BOUNDS = {
+    "reference_spp": (1 << 20, "a million samples per pixel is past any converged reference"),
+    "input_spp": (1 << 16, "the labelled input needs only its edges anti-aliased"),
+    "max_depth": (1024, "longer paths carry no energy a reference can show"),
+}
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
+
+
+def check_name(name: str) -> str:
+    """A scene name, which becomes a folder under reports/ and .cache/: a letter or digit, then
+    letters, digits, ``.``, ``_`` or ``-`` (no slashes, no ``..``), at most 64 characters."""
+    if not _NAME.fullmatch(name) or ".." in name:
+        raise UserError(f"name = {name!r}: a scene name becomes a folder name under reports/ and .cache/; "
+                        "use letters, digits, '.', '_' or '-' (starting with a letter or digit, at most 64, "
+                        "no '..'), e.g. name = \"my_scene\"")
+    return name
 
 
 @dataclass(frozen=True)
@@ -32,25 +51,46 @@ class SceneInfo:
     resolution: tuple[int, int]
 
     def __post_init__(self):
+        check_name(self.name)
         w, h = self.resolution
         if w <= 0 or h <= 0:
             raise UserError(f"resolution = {list(self.resolution)}: width and height must be > 0 "
                             "pixels, e.g. resolution = [1024, 1024]")
+        if max(w, h) > MAX_SIDE_PX:
+            raise UserError(f"resolution = {list(self.resolution)}: at most {MAX_SIDE_PX} pixels a side (an "
+                            f"RGB float image of {MAX_SIDE_PX}^2 is 3.2 GB, and the references and the runtime "
+                            "hold several); e.g. resolution = [1024, 1024]")
 
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """``[render]``: samples per pixel of the reference and of the input, seed, path length."""
+    """``[render]``: samples per pixel of the reference and of the input, seed, path length.
+
+    ``peel_layers`` (optional): peel up to this many layers from the lens centre with LES10's
+    umbra offset into the input (:mod:`lab.reference.peel`) and trace lens rays through them
+    (the ``layered`` pass, ``lens_rays`` per pixel, default 100).
+    """
 
     reference_spp: int = 256
     input_spp: int = 64
     seed: int = 0
     max_depth: int = 8
+    peel_layers: int | None = None
+    lens_rays: int | None = None
 
     def __post_init__(self):
         for key in ("reference_spp", "input_spp", "max_depth"):
             if getattr(self, key) < 1:
                 raise UserError(f"{key} = {getattr(self, key)} must be >= 1")
+        for key, bound in (("peel_layers", 64), ("lens_rays", 4096)):   # LES10 needed <= 10 layers
+            if getattr(self, key) is not None and not 1 <= getattr(self, key) <= bound:
+                raise UserError(f"{key} = {getattr(self, key)} must be between 1 and {bound} (or remove it)")
+        if self.lens_rays is not None and self.peel_layers is None:
+            raise UserError(f"lens_rays = {self.lens_rays}: lens rays trace peeled layers; add peel_layers "
+                            "(e.g. 8) or remove lens_rays")
+        for key, (bound, why) in RENDER_BOUNDS.items():
+            if getattr(self, key) > bound:
+                raise UserError(f"{key} = {getattr(self, key)}: at most {bound} ({why})")
         if not 0 <= self.seed < 2**31:
             raise UserError(f"seed = {self.seed} must be in [0, 2^31)")
 
@@ -130,6 +170,7 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
     UserError
         Unknown tables or keys, wrong types, bad values, undefined material names.
     """
+    check_finite(data, source)
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise UserError(f"{source}: unknown table(s) {unknown}; known tables are {list(SECTIONS)}")
@@ -152,6 +193,9 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
     if not shapes and not emitters:
         raise UserError(f"{source}: the scene is empty; add [[shapes]] or [[emitters]]")
     layers = sorted({s.layer for s in shapes if s.layer is not None})
+    if layers and render.peel_layers is not None:
+        raise UserError(f"{source}: [[shapes]] layer keys and [render] peel_layers both make the input's "
+                        "layerN.* layers; keep one")
     if layers != list(range(len(layers))):
         raise UserError(f"{source}: [[shapes]] use layer = {layers}; number the input layers 0, 1, ... "
                         "from the nearest without gaps (untagged shapes form the last layer)")
@@ -163,15 +207,16 @@ def parse_scene(data: dict, source: str = "<scene>") -> Scene:
                  precompute=dict(_table(data, "precompute", source, default={})), medium=medium)
 
 
-def _read_toml(path) -> dict:
-    path = Path(path)
+def _read_toml(path, what: str = "scene file", fix: str = "check the path (scenes live in scenes/)") -> dict:
+    text = read_text(path, what, fix)
+    if len(text) > MAX_SCENE_CHARS:
+        raise UserError(f"{path}: {len(text)} characters, more than a scene file may hold ({MAX_SCENE_CHARS}: "
+                        "scenes are a few kB); check that this is the scene file")
     try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise UserError(f"{path}: no such scene file; check the path (scenes live in scenes/)") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{path}: not valid TOML ({exc}); fix the syntax there") from None
+        return tomllib.loads(text)
+    except (tomllib.TOMLDecodeError, RecursionError, ValueError) as exc:
+        raise UserError(f"{path}: not valid TOML ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}); "
+                        "fix the syntax there") from None
 
 
 def load_scene(path) -> Scene:
@@ -208,7 +253,7 @@ def load_camera(path) -> Camera:
     lab.cameras.Camera
         Use ``load_camera(path).camera_json()`` as the EXR camera override.
     """
-    data = _read_toml(path)
+    data = _read_toml(path, "--camera file", "pass a TOML file with a [camera] table (e.g. scenes/demo.toml)")
     if "camera" not in data:
         raise UserError(f"{path}: no [camera] table; a --camera file needs one (see scenes/demo.toml)")
     return parse_camera(_table(data, "camera", str(path)), f"{path} [camera]")

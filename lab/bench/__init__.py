@@ -10,6 +10,10 @@ One module per benchmark:
   rotation (``bench rotation``);
 - :mod:`.integrate` - the Poisson integrators: errors against the exact solve and times at
   1024^2 and 4096^2 (``bench integrate``);
+- :mod:`.layered` - lens rays through peeled layers: quality and time per ray and layer count
+  (``bench layered``, default scene ``scenes/foreground.toml``);
+- :mod:`.layer_cost` - layers 5-8 against 1-4 of the layered pass on a numpy fence scene
+  (``bench layer_cost``);
 - :mod:`.tracing` - Dr.Jit PSF tracing rays/s of one model;
 - :mod:`.sparsify` - the sparsifier on analytic PSFs (``python -m lab.bench.sparsify``).
 """
@@ -50,9 +54,25 @@ def _integrate(args) -> list:
     return [bench_integrate(args["repeats"], sizes=(1024,) if args["quick"] else (1024, 4096))]
 
 
+def _layered(args) -> list:
+    from lab.paths import DEMO_SCENE, SCENES
+
+    from .layered import bench_layered
+
+    scene = SCENES / "foreground.toml" if Path(args["scene"]) == DEMO_SCENE else args["scene"]
+    return [bench_layered(scene, args["repeats"])]
+
+
+def _layer_cost(args) -> list:
+    from .layer_cost import bench_layer_cost
+
+    return [bench_layer_cost(args["repeats"])]
+
+
 # ``splatlab bench WHAT``: the benchmarks each name runs, in order.
 BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
-           "rotation": (_rotation,), "integrate": (_integrate,), "all": (_precompute, _runtime)}
+           "rotation": (_rotation,), "integrate": (_integrate,), "layered": (_layered,),
+           "layer_cost": (_layer_cost,), "all": (_precompute, _runtime)}
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,

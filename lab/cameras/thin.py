@@ -10,7 +10,8 @@
 - Header: the twin's JSON, the iris or the shape as ``"aperture"``, the shutter.
 - Plan: a round aperture runs the spreadlet passes on a ``simple_lens`` database against
   Mitsuba's ``thinlens`` (a moving scene: a ``combined`` database against sub-frames, see
-  :func:`lab.cameras.base.motion_plan`); an iris runs MHU21's exact polygon passes (no PSF database), a shape
+  :func:`lab.cameras.base.motion_plan`), and with ``[render] peel_layers`` also LES10's lens rays
+  through the umbra-peeled layers (the ``layered`` pass); an iris runs MHU21's exact polygon passes (no PSF database), a shape
   the spreadlet passes on a ``stylized`` database, both against the same lens through that
   aperture (:mod:`lab.reference.aperture_lens`).
 """
@@ -31,6 +32,7 @@ from .base import Camera, motion_plan, register_camera
 from .shaped_aperture import SHAPES, ShapedAperture
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
+LENS_RAYS = 100    # lens rays per pixel of the layered pass when [render] lens_rays is not given
 
 
 @register_camera("thin")
@@ -146,7 +148,7 @@ class ThinCamera(Camera):
         if self.shaped() is not None:
             return self._plan_shaped(scene)
         r = scene.render
-        return {
+        rule = {
             "dof": self._dof(),
             "aperture": "circle",
             "psf_models": ("simple_lens",),
@@ -155,6 +157,11 @@ class ThinCamera(Camera):
             "runtime_passes": ("spreadlets", "splat", "filter"),
             "skipped": (),
         }
+        if r.peel_layers is not None:   # LES10: lens rays through the umbra-peeled layers of the input
+            rays = r.lens_rays or LENS_RAYS
+            rule["runtime_passes"] += ("layered",)
+            rule["pass_runs"] = {"layered": ("layered", {"rays": rays, "layered_input": True})}
+        return rule
 
     def _dof(self) -> str:
         lens = self.runtime_camera()

@@ -17,8 +17,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from runtime_cl.psf.database import SpreadletDatabase
+from runtime_cl.atomic_file import made_folder, remove_stale_temps
 from runtime_cl.errors import InputError
+from runtime_cl.psf.database import SpreadletDatabase
 
 from lab.parallel import Executor
 
@@ -112,8 +113,19 @@ def precompute(model, *, force: bool = False, progress: bool = True, workers: in
     folder = shard_dir(model.name, digest)
     if force:
         shutil.rmtree(folder, ignore_errors=True)
-    folder.mkdir(parents=True, exist_ok=True)
+    remove_stale_temps(out.parent)     # a killed writer's half database
+    with made_folder(folder):          # removed again if the job fails before its first shard
+        remove_stale_temps(folder)
+        rays, trace_s, sparsify_s, todo, executor_kind = _run(model, executor, code, folder, progress)
+        consolidate(model, digest, folder, out)
+    shutil.rmtree(folder, ignore_errors=True)  # the database now holds everything
+    return PrecomputeResult(out, False, time.perf_counter() - t_start, rays, trace_s, sparsify_s,
+                            len(todo), executor_kind)
 
+
+def _run(model, executor, code: str, folder: Path, progress: bool) -> tuple:
+    """Trace and sparsify the cells without a shard in ``folder``, heaviest first; (rays,
+    trace seconds, sparsify seconds, the cells computed, the executor kind)."""
     n = model.grid.size
     cost = [model.rays_for_cell(c) for c in range(n)]
     todo = sorted((c for c in range(n) if not shard_ok(folder, c)), key=lambda c: -cost[c])
@@ -133,7 +145,4 @@ def precompute(model, *, force: bool = False, progress: bool = True, workers: in
                 bar.set_postfix_str(f"PSF {n - len(todo) + k}/{n}", refresh=False)
         finally:
             cells_iter.close()
-    consolidate(model, digest, folder, out)
-    shutil.rmtree(folder, ignore_errors=True)  # the database now holds everything
-    return PrecomputeResult(out, False, time.perf_counter() - t_start, rays, trace_s, sparsify_s,
-                            len(todo), executor_kind)
+    return rays, trace_s, sparsify_s, todo, executor_kind

@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from runtime_cl.atomic_file import made_folder
+
 from ..cache_key import PROJECT, cached_code_digest, code_digest
 from ..errors import UserError
 from ..parallel import Executor, set_threads, threads_here
@@ -95,9 +97,8 @@ def _pass_folder(cache_dir):
         with tempfile.TemporaryDirectory(prefix="splatlab-passes-") as tmp:
             yield Path(tmp)
     else:
-        folder = Path(cache_dir)
-        folder.mkdir(parents=True, exist_ok=True)
-        yield folder
+        with made_folder(cache_dir) as folder:
+            yield folder
 
 
 def run_job(job, executor: Executor | None = None, cache_dir=None, progress: bool = True) -> np.ndarray:

@@ -17,6 +17,7 @@ from ..scene import Scene
 from .backend import mitsuba
 from ..motion import mid_shutter, scene_moves
 from .layered import render_layers
+from .peel import peel_layers
 from .motion import Animator, motion_vectors
 from .render import load, render_passes
 
@@ -89,7 +90,8 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
         ``camera`` is the scene camera's JSON (a thin lens for a DoF scene: the lens the runtime
         must simulate), although the pixels themselves are pinhole. When shapes carry a
         ``layer`` key, ``extra`` also holds the layered input's ``layerN.*`` channels
-        (:mod:`lab.reference.layered`, same spp).
+        (:mod:`lab.reference.layered`, same spp); with ``[render] peel_layers``, the umbra-peeled
+        layers instead (:mod:`lab.reference.peel`).
     """
     mi_scene = load(scene, "pinhole")
     moves = scene_moves(scene)
@@ -102,7 +104,10 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
     points, valid, shape_ids = pixel_centre_hits(scene, mi_scene, shapes=True)
     z = planar_depth(scene, hits=(points, valid), t=t)
     alpha = np.isfinite(z).astype(np.float32)
-    extra = render_layers(scene, spp, pass_spp, progress)
+    if scene.render.peel_layers is not None:
+        extra, _ = peel_layers(scene, spp, pass_spp=pass_spp, progress=progress)
+    else:
+        extra = render_layers(scene, spp, pass_spp, progress)
     if moves:
         flow = motion_vectors(scene, mi_scene, points, valid, shape_ids)
         extra.update({"motion.X": flow[..., 0], "motion.Y": flow[..., 1]})

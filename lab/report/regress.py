@@ -1,19 +1,21 @@
 """Regression check: compare a new report.json against a baseline report.json."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from runtime_cl.input_file import read_text
+from runtime_cl.json_values import loads
+
 from ..errors import UserError
+
+MAX_REPORT_CHARS = 64 << 20   # a report.json is kilobytes; 64 MB is not one
 
 
 def load_report(path) -> dict:
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise UserError(f"report {path}: cannot be read as JSON ({exc}); pass a report.json "
-                        "written by `splatlab report`") from None
+    fix = "pass a report.json written by `splatlab report`"
+    data = loads(read_text(path, "--baseline", fix), f"--baseline {path}", fix,
+                 max_bytes=MAX_REPORT_CHARS, allow_nan=True)    # a figure a run could not measure is NaN
     if not isinstance(data, dict) or "methods" not in data:
         raise UserError(f"report {path}: has no 'methods' table; pass a report.json written by "
                         "`splatlab report`")

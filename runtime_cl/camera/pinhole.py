@@ -15,10 +15,11 @@ import numpy as np
 
 from runtime_cl.camera.common import depth_m, register_lens
 from runtime_cl.errors import InputError
+from runtime_cl.json_values import is_number
 
 
 def _check_fov(value, where: str) -> None:
-    if not (isinstance(value, (int, float)) and 0 < value < 180):
+    if not (is_number(value) and 0 < value < 180):
         raise InputError(f"{where} = {value!r} must be a number of degrees in (0, 180)")
 
 
@@ -28,7 +29,7 @@ def _check_medium(value, where: str) -> None:
     fix = 'write it as {"sigma_t": 0.25, "albedo": [0.9, 0.9, 0.85], "g": 0.6}'
     if not isinstance(value, dict) or set(value) != {"sigma_t", "albedo", "g"}:
         raise InputError(f"{where} = {value!r}: {fix}")
-    num = (lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v))
+    num = is_number
     albedo = value["albedo"]
     if not (num(value["sigma_t"]) and value["sigma_t"] > 0 and num(value["g"]) and -1 < value["g"] < 1
             and isinstance(albedo, list) and len(albedo) == 3 and all(num(a) and 0 <= a <= 1 for a in albedo)):

@@ -33,6 +33,7 @@ from typing import ClassVar
 
 from runtime_cl.camera.common import depth_m, register_lens
 from runtime_cl.errors import InputError
+from runtime_cl.json_values import is_number
 
 FOCUS_RULES = ("best", "paraxial")
 ROW = "[radius_mm, thickness_mm, glass, semi_aperture_mm]"
@@ -41,7 +42,7 @@ NUMBERS = ("focus_distance_m", "sensor_width_mm", "focal_length_mm", "chief_scal
 
 
 def _number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value)
+    return is_number(value, finite=False) and not math.isnan(value)   # inf: a flat surface
 
 
 def surface_rows(rows, where: str = "surfaces") -> tuple:

@@ -19,6 +19,7 @@ from typing import ClassVar
 
 from runtime_cl.camera.common import depth_m, register_lens
 from runtime_cl.errors import InputError
+from runtime_cl.json_values import is_number
 
 
 @register_lens("thin")
@@ -47,7 +48,7 @@ class ThinLens:
     def __post_init__(self):
         for name in ("focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            if not (is_number(value) and value > 0):   # a JSON true is not 1 mm
                 raise InputError(f"camera {name} = {value!r}: must be a finite number > 0")
         if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
             raise InputError(
@@ -105,6 +106,9 @@ class ThinLens:
         missing = [k for k in ("focal_length_mm", "f_number", "focus_distance_m") if k not in data]
         if missing:
             raise InputError(f"{source}: missing key(s) {missing} for a thin lens")
-        return cls(focal_length_mm=data["focal_length_mm"], f_number=data["f_number"],
-                   focus_distance_m=data["focus_distance_m"],
-                   sensor_width_mm=data.get("sensor_width_mm", 36.0))
+        try:
+            return cls(focal_length_mm=data["focal_length_mm"], f_number=data["f_number"],
+                       focus_distance_m=data["focus_distance_m"],
+                       sensor_width_mm=data.get("sensor_width_mm", 36.0))
+        except InputError as exc:
+            raise InputError(f"{source}: {exc}") from None

@@ -28,8 +28,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import zipfile
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,7 +35,10 @@ import numpy as np
 
 from runtime_cl.atomic_file import atomic_path
 from runtime_cl.errors import InputError
+from runtime_cl.input_file import open_input
+from runtime_cl.json_values import loads
 from runtime_cl.psf.grid import NestedGrid
+from runtime_cl.psf.npz_reader import read_npz
 
 MAGIC = "splatlab-spreadlet-db"
 FORMAT_VERSION = 1
@@ -252,51 +253,67 @@ class SpreadletDatabase:
         """
         path = Path(path)
         where = f"spreadlet database {path}"
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files}
-        except FileNotFoundError:
-            raise InputError(f"{where}: no such file; build it with `splatlab precompute SCENE`") from None
-        except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, zlib.error) as exc:
-            raise InputError(f"{where}: unreadable, truncated or not a database ({type(exc).__name__}: "
-                             f"{exc}); {REBUILD}") from None
-        try:
-            header = json.loads(bytes(arrays["header"]).decode("utf-8"))
-            stored = bytes(arrays["checksum"]).decode("ascii")
-            magic = header["magic"]
-        except (KeyError, ValueError, TypeError):
-            magic = None
-        if magic != MAGIC:
+        with open_input(path, "spreadlet database", "build it with `splatlab precompute SCENE`") as fh:
+            try:
+                return cls._decode(read_npz(fh, where), path, where, expect_model)
+            except InputError as exc:
+                if str(exc).startswith(where):
+                    raise
+                raise InputError(f"{where}: inconsistent content ({exc}); {REBUILD}") from None
+            except Exception as exc:  # noqa: BLE001 - any failure to decode a damaged file is the user's input
+                reason = (str(exc).splitlines() or [""])[0][:200]
+                raise InputError(f"{where}: unreadable, truncated or not a database ({type(exc).__name__}: "
+                                 f"{reason}); {REBUILD}") from None
+
+    @classmethod
+    def _decode(cls, arrays: dict, path: Path, where: str, expect_model) -> "SpreadletDatabase":
+        """The database from the file's arrays (header checked, checksum verified)."""
+        header = stored = None
+        if "header" in arrays and "checksum" in arrays:
+            header = loads(arrays["header"].tobytes(), f"{where} header", REBUILD)
+            stored = arrays["checksum"].tobytes().decode("ascii", "replace")
+        if not isinstance(header, dict) or header.get("magic") != MAGIC:
             raise InputError(f"{where}: not a splatlab spreadlet database (no '{MAGIC}' header); "
                              f"pass a file written by `splatlab precompute SCENE`")
         version = header.get("format_version")
         if version != FORMAT_VERSION:
             raise InputError(f"{where}: format version {version!r}, this splatlab reads version "
                              f"{FORMAT_VERSION}; {REBUILD}")
-        names = [n for n, _ in ARRAYS] + [f"stat__{s}" for s in header.get("stats", [])]
+        _check_header_types(header, where)
+        names = [n for n, _ in ARRAYS] + [f"stat__{s}" for s in header["stats"]]
         missing = [n for n in names if n not in arrays]
         if missing:
             raise InputError(f"{where}: arrays {missing} are missing; {REBUILD}")
-        try:
-            computed = _checksum(bytes(arrays["header"]), {n: arrays[n] for n in names})
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"{where}: corrupt header ({exc}); {REBUILD}") from None
+        computed = _checksum(arrays["header"].tobytes(), {n: arrays[n] for n in names})
         if computed != stored:
             raise InputError(f"{where}: corrupt (checksum mismatch: stored {stored[:12]}..., "
                              f"content {computed[:12]}...); {REBUILD}")
         if expect_model is not None and header["model"] != expect_model:
             raise InputError(f"{where}: built for model {header['model']!r}, this render needs "
                              f"{expect_model!r}; {REBUILD} for a scene that uses {expect_model!r}")
-        try:
-            db = cls(model=header["model"], params=header["params"],
-                     grid=NestedGrid.from_json(header["grid"]), channels=header["channels"],
-                     psf_resolution=header["psf_resolution"],
-                     **{n: arrays[n] for n, _ in ARRAYS},
-                     stats={s: arrays[f"stat__{s}"] for s in header["stats"]},
-                     checksum=stored, path=path)
-        except (InputError, KeyError, TypeError) as exc:
-            raise InputError(f"{where}: inconsistent content ({exc}); {REBUILD}") from None
-        return db
+        return cls(model=header["model"], params=header["params"],
+                   grid=NestedGrid.from_json(header["grid"]), channels=header["channels"],
+                   psf_resolution=header["psf_resolution"],
+                   **{n: arrays[n] for n, _ in ARRAYS},
+                   stats={s: arrays[f"stat__{s}"] for s in header["stats"]},
+                   checksum=stored, path=path)
+
+
+# header key -> (test, what it must be)
+_HEADER_TYPES = {
+    "model": (lambda v: isinstance(v, str) and v != "", "a model name"),
+    "params": (lambda v: isinstance(v, dict), "a JSON object"),
+    "grid": (lambda v: isinstance(v, dict) and {"n", "beta", "ranges", "names"} <= set(v), "a PSF-space object"),
+    "channels": (lambda v: v in (1, 3) and not isinstance(v, bool), "1 or 3"),
+    "psf_resolution": (lambda v: isinstance(v, int) and not isinstance(v, bool) and v > 0, "an integer > 0"),
+    "stats": (lambda v: isinstance(v, list) and all(isinstance(s, str) for s in v), "a list of names"),
+}
+
+
+def _check_header_types(header: dict, where: str) -> None:
+    for key, (ok, want) in _HEADER_TYPES.items():
+        if key not in header or not ok(header[key]):
+            raise InputError(f"{where}: header {key} = {header.get(key)!r} must be {want}; {REBUILD}")
 
 
 def _header_bytes(header: dict) -> bytes:

@@ -24,6 +24,12 @@ import numpy as np
 from runtime_cl.errors import InputError
 
 
+MAX_SAMPLES = 65536           # PSF samples a model may ask for (LSR18's tables use hundreds)
+MAX_CELLS = 1 << 20           # cells of any grid (a database header cannot ask for more)
+MAX_DIMS = 8                  # PSF-space dimensions (models use 1 or 2)
+MAX_N = 65536 * 65537 // 2    # grid units: T(65536), 65536 levels
+
+
 def triangular(l):
     return l * (l + 1) // 2
 
@@ -64,8 +70,11 @@ class NestedGrid:
         object.__setattr__(self, "beta", tuple(float(b) for b in self.beta))
         object.__setattr__(self, "ranges", tuple((float(lo), float(hi)) for lo, hi in self.ranges))
         object.__setattr__(self, "names", tuple(str(s) for s in self.names))
-        if not (isinstance(self.n, (int, np.integer)) and self.n >= 1):
-            raise InputError(f"PSF space n = {self.n!r}: must be an integer >= 1")
+        if not (isinstance(self.n, (int, np.integer)) and 1 <= self.n <= MAX_N):
+            raise InputError(f"PSF space n = {self.n!r}: must be an integer in [1, {MAX_N}] (T(65536): "
+                             "the nested grid's levels are counted one by one)")
+        if not 1 <= len(self.beta) <= MAX_DIMS:
+            raise InputError(f"PSF space: {len(self.beta)} dimensions; a PSF model has 1 to {MAX_DIMS}")
         if not (len(self.beta) == len(self.ranges) == len(self.names) >= 1):
             raise InputError(f"PSF space: beta {self.beta}, ranges {self.ranges} and names {self.names} "
                              "must have one entry per dimension")
@@ -80,6 +89,9 @@ class NestedGrid:
         for l in range(levels):
             k = self.cells_per_row(l)
             counts.append(k ** self.ns - (k - 1) ** self.ns)
+        if sum(counts) > MAX_CELLS:
+            raise InputError(f"PSF space n = {self.n} in {self.ns} dimension(s) has {sum(counts)} cells, more than "
+                             f"{MAX_CELLS} (each cell is a traced PSF and a database row); use fewer samples")
         object.__setattr__(self, "level_offsets", np.concatenate([[0], np.cumsum(counts)]).astype(np.int64))
         object.__setattr__(self, "level_widths", np.arange(1, levels + 1, dtype=np.int64))
 
@@ -104,14 +116,20 @@ class NestedGrid:
     @classmethod
     def for_samples(cls, samples: int, beta, ranges, names) -> "NestedGrid":
         """The smallest grid with n = T(L) (so no level is truncated) and at least ``samples`` cells."""
-        if not (isinstance(samples, (int, np.integer)) and samples >= 1):
-            raise InputError(f"PSF samples = {samples!r}: must be an integer >= 1")
-        level = 1
-        while True:
-            grid = cls(triangular(level), beta, ranges, names)
-            if grid.size >= samples:
-                return grid
-            level += 1
+        if not (isinstance(samples, (int, np.integer)) and not isinstance(samples, bool)
+                and 1 <= samples <= MAX_SAMPLES):
+            raise InputError(f"PSF samples = {samples!r}: must be an integer in [1, {MAX_SAMPLES}] (each sample "
+                             "is a traced PSF: seconds each, and a row of the database)")
+        lo, hi = 1, 1          # the size grows with the level: bracket it, then bisect
+        while cls(triangular(hi), beta, ranges, names).size < samples:
+            lo, hi = hi + 1, 2 * hi
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if cls(triangular(mid), beta, ranges, names).size >= samples:
+                hi = mid
+            else:
+                lo = mid + 1
+        return cls(triangular(lo), beta, ranges, names)
 
     # --- coordinates -----------------------------------------------------------------------
     def normalise(self, x) -> np.ndarray:

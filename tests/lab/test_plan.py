@@ -1,4 +1,7 @@
 """The plan: which effects, PSF models, references and runtime passes a scene calls for."""
+import pytest
+
+from lab.errors import UserError
 from lab.paths import SCENES
 from lab.plan import make_plan
 from lab.scene import load_scene, parse_scene
@@ -129,3 +132,36 @@ def test_a_medium_is_validated_and_a_thin_lens_cannot_carry_it():
                         "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
     with pytest.raises(UserError, match=r"f.toml \[medium\]: a medium with a thin lens"):
         make_plan(thin)
+
+
+def test_a_peeling_scene_plans_lens_rays_through_its_peeled_layers():
+    plan = make_plan(load_scene(SCENES / "foreground.toml"))
+    assert plan.runtime_passes == ("spreadlets", "splat", "filter", "layered")
+    assert plan.pass_run("layered") == ("layered", {"rays": 100, "layered_input": True})
+    assert [i.name for i in plan.inputs] == ["pinhole_labelled", "peeled_layers"]
+    assert "layer0..7" in plan.inputs[1].detail
+    tiny = make_plan(load_scene(SCENES / "tiny_foreground.toml"))
+    assert tiny.pass_run("layered")[1]["rays"] == 64
+    default = make_plan(parse_scene({"scene": {"name": "p", "resolution": [16, 8]}, "camera": {
+        "position": [0, 0, 0], "look_at": [0, 0, 1], **THIN}, "render": {"peel_layers": 4},
+        "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "p.toml"))
+    assert default.pass_run("layered")[1]["rays"] == 100
+    iris = make_plan(parse_scene({"scene": {"name": "p", "resolution": [16, 8]}, "camera": {
+        "position": [0, 0, 0], "look_at": [0, 0, 1], **THIN, "aperture": {"blades": 6}},
+        "render": {"peel_layers": 4}, "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "p.toml"))
+    assert "layered" not in iris.runtime_passes
+    assert any(s.name.startswith("layered") for s in iris.skipped)
+
+
+def test_peeling_settings_are_checked():
+    base = {"scene": {"name": "p", "resolution": [16, 8]},
+            "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **THIN},
+            "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}
+    for render, message in (({"peel_layers": 0}, "peel_layers = 0 must be >= 1"),
+                            ({"lens_rays": 32}, "lens_rays = 32: lens rays trace peeled layers")):
+        with pytest.raises(UserError, match=message):
+            parse_scene({**base, "render": render}, "p.toml")
+    with pytest.raises(UserError, match="layer keys and \\[render\\] peel_layers"):
+        parse_scene({**base, "render": {"peel_layers": 2}, "materials": {"m": {"reflectance": [0.5, 0.5, 0.5]}},
+                     "shapes": [{"type": "sphere", "material": "m", "center": [0, 0, 2], "radius": 0.1,
+                                 "layer": 0}]}, "p.toml")

@@ -49,7 +49,7 @@ def test_render_errors_name_the_option(labelled, tmp_path, capsys):
     assert "--db" in capsys.readouterr().err
     assert main(["render", str(path), "--method", "polygon", "--edges", "2",
                  "--out", str(tmp_path / "x.exr")]) == 2
-    assert "max_edges" in capsys.readouterr().err
+    assert "--edges 2: the rectified aperture" in capsys.readouterr().err
 
 
 def test_bench_dof_scene_radius_map():

@@ -164,7 +164,7 @@ def test_pinhole_rejects_lens_keys(tmp_path):
 
 
 def test_file_errors(tmp_path):
-    with pytest.raises(UserError, match="no such scene file"):
+    with pytest.raises(UserError, match=r"scene file .*missing.toml: no such file"):
         load_scene(tmp_path / "missing.toml")
     with pytest.raises(UserError, match="not valid TOML"):
         load_scene(write(tmp_path, "[scene\nname = 1"))

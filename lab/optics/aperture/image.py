@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import abc
 import hashlib
+import io
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -31,6 +32,7 @@ import numpy as np
 from drjit.llvm import Array2f, Float, Float64, UInt32
 
 from lab.errors import UserError
+from runtime_cl.input_file import read_bytes
 from lab.optics.aperture.base import Aperture, register_aperture
 
 __all__ = ["ImageAperture", "FileImageAperture", "MAX_IMAGE_SIDE", "load_transmittance"]
@@ -58,10 +60,9 @@ def load_transmittance(path: str) -> tuple[np.ndarray, str]:
     """
     from PIL import Image, UnidentifiedImageError
 
+    data = read_bytes(path, "aperture_image", "give the path of a PNG whose bright pixels are the open aperture")
     try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-        with Image.open(path) as img:
+        with Image.open(io.BytesIO(data)) as img:
             if max(img.size) > MAX_IMAGE_SIDE:
                 raise UserError(f"aperture_image = {path!r} is {img.size[0]} x {img.size[1]} pixels; "
                                 f"at most {MAX_IMAGE_SIDE} per side: scale it down")

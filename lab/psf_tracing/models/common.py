@@ -36,6 +36,7 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture, get_aperture, make_aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
+from runtime_cl.psf.grid import MAX_SAMPLES
 
 __all__ = ["ApertureKeys", "LensKeys", "check_number", "check_common", "whole_launches",
            "SYMMETRY_TAGS"]
@@ -48,14 +49,32 @@ _APERTURE_PARAMS = {"aperture_blades": "blades", "aperture_rotation_deg": "rotat
                     "aperture_image_sha256": "sha256"}
 
 
+# Upper bounds of a model's counts and sizes, and why (a typo of a few digits must not hang or
+# exhaust memory hours into a job).
+SIZE_BOUNDS = {
+    "samples": (MAX_SAMPLES, "each sample is a traced PSF and a database row; LSR18 uses hundreds"),
+    "psf_resolution": (16383, "a PSF is traced into psf_resolution^2 float32 pixels, 1 GB at 16383, and "
+                              "its offsets are stored in 16 bits"),
+    "rays_per_psf": (1 << 40, "2^40 rays take about an hour per PSF at 300 M rays/s"),
+    "rays_per_pixel": (1 << 24, "sparsifying converges long before"),
+    "width_px": (16384, "the largest scene resolution"),
+    "lens_width_px": (16384, "the largest scene resolution"),
+    "max_collisions": (1 << 16, "a walk this long carries no light"),
+}
+
+
 def check_number(name: str, value, *, integer: bool = False, zero_ok: bool = False) -> None:
-    """UserError unless ``value`` is a finite number (an integer if ``integer``) > 0 (>= 0 if ``zero_ok``)."""
+    """UserError unless ``value`` is a finite number (an integer if ``integer``) > 0 (>= 0 if
+    ``zero_ok``) and at most its bound in :data:`SIZE_BOUNDS` (the message says why)."""
     kinds = (int,) if integer else (int, float)
-    ok = (isinstance(value, kinds) and not isinstance(value, bool) and math.isfinite(value)
-          and (value >= 0 if zero_ok else value > 0))
+    ok = (isinstance(value, kinds) and not isinstance(value, bool)
+          and (isinstance(value, int) or math.isfinite(value)) and (value >= 0 if zero_ok else value > 0))
     if not ok:
         what = "an integer" if integer else "a finite number"
         raise UserError(f"{name} = {value!r}: must be {what} {'>= 0' if zero_ok else '> 0'}")
+    if name in SIZE_BOUNDS and value > SIZE_BOUNDS[name][0]:
+        bound, why = SIZE_BOUNDS[name]
+        raise UserError(f"{name} = {value!r}: at most {bound} ({why})")
 
 
 def check_common(cfg) -> None:

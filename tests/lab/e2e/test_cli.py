@@ -134,7 +134,7 @@ def test_database_for_another_model(tiny_input, tiny_db, tmp_path, capsys):
 
 
 def test_missing_scene_file(tmp_path, capsys):
-    _expect_user_error(["plan", tmp_path / "nope.toml"], capsys, "nope.toml", "no such scene file")
+    _expect_user_error(["plan", tmp_path / "nope.toml"], capsys, "scene file", "nope.toml: no such file")
 
 
 def test_a_database_for_another_aperture(tiny_input, tiny_db, tmp_path, capsys):

@@ -185,7 +185,7 @@ def test_polygon_capsule_sweeps_the_polygon():
     ({"aperture": "polygon", "aperture_rounding": -0.5}, "aperture_rounding = -0.5"),
     ({"aperture_blades": 6}, r"does not use \['aperture_blades'\]"),
     ({"aperture": "image"}, "needs aperture_image"),
-    ({"aperture": "image", "aperture_image": "/nonexistent/iris.png"}, "cannot be read"),
+    ({"aperture": "image", "aperture_image": "/nonexistent/iris.png"}, "iris.png: no such file"),
     ({"motion_px": 3.0}, r"unknown key\(s\) \['motion_px'\]"),
     ({"samples": 0}, "samples"),
 ])

@@ -129,7 +129,7 @@ def test_last_cell_fits_the_minimum_resolution():
     ({"psf_resolution": 61, "channel_scale": [1.5, 1.0, 1.0]}, r"psf_resolution >= 83"),
     ({"channel_scale": [1.0, 0.9]}, "channel_scale"),
     ({"channel_scale": [1.0, -0.9, 1.0]}, "channel_scale = -0.9"),
-    ({"aperture": "image", "aperture_image": "/nonexistent/logo.png"}, "cannot be read"),
+    ({"aperture": "image", "aperture_image": "/nonexistent/logo.png"}, "logo.png: no such file"),
     ({"aperture": "image"}, "needs aperture_image"),
     ({"aperture": "star", "aperture_blades": 5}, "does not use"),
     ({"max_coc_px": 0.0}, "max_coc_px"),

@@ -1,16 +1,10 @@
 """`splatlab reference SCENE --workers N`: the serial render's bits, and no worker outlives the command."""
-import os
-import signal
-import subprocess
-import sys
-import time
-
 import numpy as np
-import pytest
+from kill_support import sigkill_when_busy
 
 from lab.cli import main
 from lab.exr_io import read_rgb
-from lab.paths import ROOT, SCENES
+from lab.paths import SCENES
 from lab.reference.render import reference_job
 from lab.scene import load_scene
 
@@ -38,34 +32,10 @@ def test_reference_on_workers_is_the_serial_render(tmp_path, monkeypatch, capsys
 
 def test_killing_the_command_leaves_no_worker_process(tmp_path):
     """SIGKILL gives the command no chance to stop its pool: the workers notice and exit."""
-    psutil = pytest.importorskip("psutil")
     path = scene_file(tmp_path, 4096)  # 1024 passes: still rendering when killed
     cache = tmp_path / "cache"
-    proc = subprocess.Popen([sys.executable, "-m", "lab.cli", "reference", str(path), "--workers", "2",
-                             "--quiet", "--out-dir", str(tmp_path / "out")], cwd=ROOT,
-                            env=dict(os.environ, SPLATLAB_CACHE=str(cache)),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    children = []
-    try:
-        deadline = time.monotonic() + 120
-        while not list(cache.glob("renders/*/reference-passes/pass*.npy")):
-            assert proc.poll() is None, proc.stderr.read()
-            assert time.monotonic() < deadline, "no pass was cached within 120 s"
-            time.sleep(0.01)
-        children = psutil.Process(proc.pid).children(recursive=True)
-        workers = [c for c in children if "spawn_main" in " ".join(c.cmdline())]
-        assert len(workers) == 2, [c.cmdline() for c in children]
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(30)
-        _, alive = psutil.wait_procs(children, timeout=10)
-        assert not alive, [c.cmdline() for c in alive]
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        for child in children:
-            if child.is_running():
-                child.kill()
-    assert proc.returncode == -signal.SIGKILL
+    sigkill_when_busy(["reference", path, "--workers", "2", "--quiet", "--out-dir", tmp_path / "out"], cache,
+                      "renders/*/reference-passes/pass*.npy")
     passes = sorted(cache.glob("renders/*/reference-passes/pass*.npy"))
     assert passes and all(np.load(p).shape == (24, 24, 3) for p in passes)  # whole files only
 

@@ -127,7 +127,7 @@ def test_builtin_orientation():
 
 
 def test_unreadable_files_are_user_errors(tmp_path):
-    with pytest.raises(UserError, match="cannot be read"):
+    with pytest.raises(UserError, match=r"aperture_image .*missing\.png: no such file; give the path of a PNG"):
         make_aperture("image", path=str(tmp_path / "missing.png"))
     junk = tmp_path / "junk.png"
     junk.write_bytes(b"not a png at all")

@@ -1,0 +1,337 @@
+// Lens rays through layered height fields (LES09 4.3, LES10 3) for a thin lens.
+//
+// A lens ray of pixel centre p through the unit-disc lens sample xi is, in the pinhole image of
+// the lens centre and parametrised by inverse depth w = 1/z, the straight line
+//     q(w) = a + b w,   a = p - xi S / F,   b = xi S
+// (S: CoC scale in px per dioptre, F: focus distance), so q(1/F) = p and q moves by the CoC
+// |C(z)| = S |1/F - 1/z| from p at depth z.
+//
+// Layer k's pixel c is a surfel: its cell [cx, cx+1) x [cy, cy+1) at inverse depth h (0 at
+// infinity, < 0 empty), solid over the slab h - THICK <= w <= h. A ray hits it where q(w) lies in
+// the cell and w in the slab. The ray's hit is the largest such w over all layers (the nearest
+// surface), ties to the lower layer. A slab, not a solid height field: a ray that passes beside
+// a near surfel and then behind it goes on (what the pinhole view hides, the peeled layers hold);
+// THICK = t_px / S makes the slab t_px pixels of ray travel deep, so neighbours of a continuous
+// surface whose CoCs differ by less than that leave no gap.
+//
+// Per layer the search runs on the part of the ray inside the image, in front of the best hit so
+// far, clamped by min/max inverse depths (LES10): first PIXEL_ITERS times for all rays of a pixel
+// at once (their footprint is the CoC), then CLAMP_ITERS times per ray: the footprint of the segment
+// (the bounding box of its end points) is looked up in an N-buffer over the layer down-sampled by
+// DS (four overlapping squares, Decoret 2005), and the segment cut to [min - THICK, max]. An
+// empty footprint culls the layer. The rest is walked cell by cell (exact 2D DDA, near to far).
+//
+// Constants (-D): W, H, NL (layers), NRAYS, NSAMPLES (lens samples, 2 NRAYS), DS, W4, H4 (the
+// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS, PIXEL_ITERS; FALSE_POSITION and
+// FP_ITERS for LES09's search instead of the exact walk; CONE, CONE_STEPS and MIPS for approximate
+// cone tracing.
+
+#define MARGIN 0.01f   // pixels added around footprints: float rounding must not drop a cell
+
+typedef struct {
+    float w;      // inverse depth of the hit, -1: none
+    int layer;    // -1: none
+    int cell;     // y W + x of the hit cell
+} hit_t;
+
+// (min h, max h) of layer k over down-sampled cells [cx0, cx1] x [cy0, cy1] (conservative).
+static float2 nbuffer_query(global const float2 *nbuf, int k, int cx0, int cy0, int cx1, int cy1)
+{
+    int n = max(cx1 - cx0, cy1 - cy0) + 1;
+    int lv = min(31 - (int)clz(n), LEVELS - 1);
+    int size = 1 << lv;
+    int xa = cx0, xb = max(cx1 - size + 1, 0), ya = cy0, yb = max(cy1 - size + 1, 0);
+    global const float2 *level = nbuf + ((size_t)k * LEVELS + lv) * (W4 * H4);
+    float2 r0 = level[ya * W4 + xa], r1 = level[ya * W4 + xb];
+    float2 r2 = level[yb * W4 + xa], r3 = level[yb * W4 + xb];
+    return (float2)(fmin(fmin(r0.x, r1.x), fmin(r2.x, r3.x)), fmax(fmax(r0.y, r1.y), fmax(r2.y, r3.y)));
+}
+
+// Cut [*wa, *wb] of layer k to the min/max inverse depths under its footprint; false: no hit.
+static bool clamp_segment(global const float2 *nbuf, int k, float2 a, float2 b, float thick,
+                          float *wa, float *wb)
+{
+    for (int it = 0; it < CLAMP_ITERS; ++it) {
+        float2 qa = a + b * *wa, qb = a + b * *wb;
+        int x0 = clamp((int)floor(fmin(qa.x, qb.x) - MARGIN), 0, W - 1);
+        int x1 = clamp((int)floor(fmax(qa.x, qb.x) + MARGIN), 0, W - 1);
+        int y0 = clamp((int)floor(fmin(qa.y, qb.y) - MARGIN), 0, H - 1);
+        int y1 = clamp((int)floor(fmax(qa.y, qb.y) + MARGIN), 0, H - 1);
+        float2 m = nbuffer_query(nbuf, k, x0 / DS, y0 / DS, x1 / DS, y1 / DS);
+        *wa = fmax(*wa, m.x - thick);
+        *wb = fmin(*wb, m.y);
+        if (*wa > *wb)
+            return false;
+        if (x1 - x0 < DS && y1 - y0 < DS)
+            break;   // one or two down-sampled cells: the walk is as cheap as another look-up
+    }
+    return true;
+}
+
+// Walk layer k's cells under q(w) for w from wb down to wa; the first surfel slab hit with
+// w > best->w becomes the best hit. Cell boundaries are crossed at w = (edge - a) / b, computed
+// from the edge itself rather than accumulated, so where a ray enters a cell does not depend on
+// where the walk started: a hit at a cell's entry ties exactly across layers (the lower wins).
+static void walk_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
+                       float thick, hit_t *best)
+{
+    float2 q0 = a + b * wb;
+    int ix = clamp((int)floor(q0.x), 0, W - 1), iy = clamp((int)floor(q0.y), 0, H - 1);
+    int sx = b.x > 0.0f ? -1 : 1, sy = b.y > 0.0f ? -1 : 1;   // q moves against b as w falls
+    float w_enter = wb, ibx = 1.0f / b.x, iby = 1.0f / b.y;   // inf for b = 0: never crossed
+    global const float *layer = height + (size_t)k * W * H;
+    for (;;) {
+        float wx = b.x != 0.0f ? ((float)(sx < 0 ? ix : ix + 1) - a.x) * ibx : -INFINITY;
+        float wy = b.y != 0.0f ? ((float)(sy < 0 ? iy : iy + 1) - a.y) * iby : -INFINITY;
+        float w_exit = fmax(fmax(wx, wy), wa);
+        float h = layer[iy * W + ix];
+        if (h >= 0.0f) {
+            float whi = fmin(h, w_enter), wlo = fmax(h - thick, w_exit);
+            if (wlo <= whi && whi > best->w) {
+                best->w = whi;
+                best->layer = k;
+                best->cell = iy * W + ix;
+                return;
+            }
+        }
+        if (w_exit <= wa)
+            return;
+        if (wx >= wy)
+            ix += sx;
+        else
+            iy += sy;
+        w_enter = w_exit;
+        if (ix < 0 || ix >= W || iy < 0 || iy >= H)
+            return;
+    }
+}
+
+#ifdef FALSE_POSITION
+#define BISECT 8
+// LES09's search instead of the walk: the layer as a continuous height field along the segment,
+// f(w) = w - h(q(w)) (> 0 in front of the surface; an empty pixel is no surface). Starting from
+// the segment's ends, FP_ITERS steps of the method of false position: intersect the ray with the
+// line through f at both ends, keep the half that still brackets the crossing. The hit is the
+// point found just behind the surface, in its cell, if within the slab; a crossing of a
+// discontinuity (a silhouette's wall) is then no hit. Approximate: a thin feature between the
+// samples can be missed, which the exact walk never does.
+static float fp_f(global const float *layer, float2 a, float2 b, float w, int *cell)
+{
+    float2 q = a + b * w;
+    int x = clamp((int)floor(q.x), 0, W - 1), y = clamp((int)floor(q.y), 0, H - 1);
+    float h = layer[y * W + x];
+    *cell = y * W + x;
+    return h >= 0.0f ? w - h : INFINITY;
+}
+
+static void search_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
+                         float thick, hit_t *best)
+{
+    global const float *layer = height + (size_t)k * W * H;
+    int cn, cf;
+    float n = wb, f = wa;
+    float fn = fp_f(layer, a, b, n, &cn), ff = fp_f(layer, a, b, f, &cf);
+    if (fn <= 0.0f) {            // behind a surface from the start: the near end is the hit
+        f = n;
+        ff = fn;
+        cf = cn;
+    } else if (ff > 0.0f) {
+        return;                  // in front at both ends: no crossing found
+    } else {
+        for (int it = 0; it < FP_ITERS; ++it) {
+            float wi = isinf(fn) ? 0.5f * (n + f) : n - fn * (n - f) / (fn - ff);
+            int ci;
+            float fi = fp_f(layer, a, b, wi, &ci);
+            if (fi <= 0.0f) {
+                f = wi;
+                ff = fi;
+                cf = ci;
+            } else {
+                n = wi;
+                fn = fi;
+            }
+        }
+        for (int it = 0; it < BISECT && ff < -thick; ++it) {   // LES09: a binary search finishes
+            float wi = 0.5f * (n + f);
+            int ci;
+            float fi = fp_f(layer, a, b, wi, &ci);
+            if (fi <= 0.0f) {
+                f = wi;
+                ff = fi;
+                cf = ci;
+            } else {
+                n = wi;
+            }
+        }
+    }
+    if (ff >= -thick && f > best->w) {
+        best->w = f;
+        best->layer = k;
+        best->cell = cf;
+    }
+}
+#define SEARCH_LAYER search_layer
+#else
+#define SEARCH_LAYER walk_layer
+#endif
+
+// The w-range of q(w) = a + b w inside [0, W) x [0, H), within [lo, hi]; false if none.
+static bool clip_to_image(float2 a, float2 b, float *lo, float *hi)
+{
+    float2 size = (float2)(W, H);
+    for (int i = 0; i < 2; ++i) {
+        float ai = i ? a.y : a.x, bi = i ? b.y : b.x, si = i ? size.y : size.x;
+        if (bi == 0.0f) {
+            if (ai < 0.0f || ai >= si)
+                return false;
+            continue;
+        }
+        float w1 = -ai / bi, w2 = (si - ai) / bi;
+        *lo = fmax(*lo, fmin(w1, w2));
+        *hi = fmin(*hi, fmax(w1, w2));
+    }
+    return *lo <= *hi;
+}
+
+// The nearest surfel hit of the ray (a, b) over every layer, each searched within [wa[k], wb[k]]
+// (wa > wb: skip the layer) and below wcap; *left: part of [0, wmax] is off the image.
+static hit_t trace_ray(global const float *height, global const float2 *nbuf, const float *wa0, const float *wb0,
+                       float2 a, float2 b, float wmax, float wcap, float thick, bool *left)
+{
+    hit_t best = {-1.0f, -1, -1};
+    float lo = 0.0f, hi = wmax;
+    bool inside = clip_to_image(a, b, &lo, &hi);
+    *left = !inside || lo > 0.0f || hi < wmax;
+    if (!inside)
+        return best;
+    for (int k = 0; k < NL; ++k) {
+        float wa = fmax(fmax(lo, wa0[k]), best.w), wb = fmin(fmin(hi, wb0[k]), wcap);
+        if (wa > wb)
+            continue;   // an empty layer, or nothing of it in front of the best hit
+        if (!clamp_segment(nbuf, k, a, b, thick, &wa, &wb))
+            continue;
+        SEARCH_LAYER(height, k, a, b, wa, wb, thick, &best);
+    }
+    return best;
+}
+
+// Per layer, the inverse depths any lens ray of pixel p can hit (LES10: one footprint bounds all
+// of a pixel's rays: at w they lie within S |w - 1/F| of p, the CoC, largest at an end of the
+// segment); wa > wb where none can.
+static void pixel_ranges(global const float2 *nbuf, global const float2 *range, float2 p, float coc_scale,
+                         float inv_focus, float wmax, float thick, float *wa, float *wb)
+{
+    for (int k = 0; k < NL; ++k) {
+        float2 r = range[k];
+        float lo = fmax(0.0f, r.x - thick), hi = fmin(wmax, r.y);
+        for (int it = 0; it < PIXEL_ITERS && lo <= hi; ++it) {
+            float reach = coc_scale * fmax(fabs(lo - inv_focus), fabs(hi - inv_focus)) + MARGIN;
+            int x0 = clamp((int)floor(p.x - reach), 0, W - 1), x1 = clamp((int)floor(p.x + reach), 0, W - 1);
+            int y0 = clamp((int)floor(p.y - reach), 0, H - 1), y1 = clamp((int)floor(p.y + reach), 0, H - 1);
+            float2 m = nbuffer_query(nbuf, k, x0 / DS, y0 / DS, x1 / DS, y1 / DS);
+            lo = fmax(lo, m.x - thick);
+            hi = fmin(hi, m.y);
+        }
+        wa[k] = lo;
+        wb[k] = hi;
+    }
+}
+
+static uint hash_u32(uint x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return x;
+}
+
+// One work item per pixel: NRAYS lens rays, samples (o + j) mod NSAMPLES of the jittered set with a
+// per-pixel offset o (LES09 4.5). out: mean colour of the rays that hit (xyz), rays that hit (w);
+// stats: rays that left the image, rays that found nothing (holes).
+//
+// With CONE (LES09 4.4), a ray is a cone of diameter lambda |C(w)| (lambda: the lens samples'
+// spacing): at a hit the layer's colour + coverage mipmap is read over that window (level
+// log2 of the diameter); the covered fraction v adds its mean colour, the rest (1 - v) goes on
+// behind the surfel's slab, up to CONE_STEPS hits. A ray's weight is the fraction it found.
+kernel void render(global const float *height, global const float4 *colour, global const float2 *nbuf,
+                   global const float2 *range, global const float2 *samples, float coc_scale,
+                   float inv_focus, float wmax, float thick, uint seed, global const float4 *mip,
+                   global const int *mip_offset, float lambda, global float4 *out, global int2 *stats)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (x >= W || y >= H)
+        return;
+    float2 p = (float2)(x + 0.5f, y + 0.5f);
+    uint o = hash_u32((uint)(y * W + x) ^ hash_u32(seed)) % NSAMPLES;
+    float4 sum = (float4)0.0f;
+    float weight = 0.0f;
+    int left_n = 0, miss_n = 0;
+    float wa[NL], wb[NL];
+    pixel_ranges(nbuf, range, p, coc_scale, inv_focus, wmax, thick, wa, wb);
+    for (int j = 0; j < NRAYS; ++j) {
+        int s = (int)o + j;
+        float2 b = samples[s < NSAMPLES ? s : s - NSAMPLES] * coc_scale;
+        float2 a = p - b * inv_focus;
+        bool left;
+        hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, INFINITY, thick, &left);
+        if (hit.layer < 0) {
+            left_n += left ? 1 : 0;
+            miss_n += left ? 0 : 1;
+            continue;
+        }
+#ifdef CONE
+        float through = 1.0f;
+        for (int step = 0; step < CONE_STEPS; ++step) {
+            float diameter = lambda * coc_scale * fabs(inv_focus - hit.w);
+            int lv = diameter > 1.0f ? min((int)(log2(diameter) + 0.5f), MIPS - 1) : 0;
+            int cx = hit.cell % W, cy = hit.cell / W, wl = (W + (1 << lv) - 1) >> lv;
+            float4 m = mip[mip_offset[hit.layer * MIPS + lv] + (cy >> lv) * wl + (cx >> lv)];
+            sum += through * (float4)(m.x, m.y, m.z, 0.0f);
+            through *= 1.0f - m.w;
+            if (through < 0.01f)
+                break;
+            float cap = height[(size_t)hit.layer * W * H + hit.cell] - thick * 1.0001f - 1e-7f;
+            hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, cap, thick, &left);
+            if (hit.layer < 0)
+                break;
+        }
+        weight += 1.0f - through;
+#else
+        sum += colour[(size_t)hit.layer * W * H + hit.cell];
+        weight += 1.0f;
+#endif
+    }
+    float hits = (float)(NRAYS - left_n - miss_n);
+    if (weight > 0.0f) {
+        sum /= weight;
+    } else {   // no ray hit: the nearest layer's own pixel, if any
+        for (int k = 0; k < NL && hits == 0.0f; ++k)
+            if (height[(size_t)k * W * H + y * W + x] >= 0.0f) {
+                sum = colour[(size_t)k * W * H + y * W + x];
+                hits = -1.0f;
+            }
+    }
+    sum.w = hits;
+    out[y * W + x] = sum;
+    stats[y * W + x] = (int2)(left_n, miss_n);
+}
+
+// Tests and tools: trace explicit rays (a.x, a.y, b.x, b.y); out = (w, layer, cell, left).
+kernel void trace_rays(global const float *height, global const float2 *nbuf, global const float2 *range,
+                       global const float4 *rays, int n, float wmax, float thick, global float4 *out)
+{
+    int i = get_global_id(0);
+    if (i >= n)
+        return;
+    float4 r = rays[i];
+    float wa[NL], wb[NL];
+    for (int k = 0; k < NL; ++k) {
+        wa[k] = range[k].x - thick;
+        wb[k] = range[k].y;
+    }
+    bool left;
+    hit_t hit = trace_ray(height, nbuf, wa, wb, r.xy, r.zw, wmax, INFINITY, thick, &left);
+    out[i] = (float4)(hit.w, (float)hit.layer, (float)hit.cell, left ? 1.0f : 0.0f);
+}

@@ -32,9 +32,9 @@ level, then one kernel for the rest, row-wise), the mean of level 0's border rin
 from level 1 before level 0 is written, so level 0 is written once, already shifted), then one
 download. The row-wise kernels work on runs of 16 floats of the interleaved channels (one
 unaligned vector load per tap), so they vectorise for any channel count. On this 2-core
-machine a 1200^2 RGB canvas takes ~20 ms (16 ms on the device), 3.6-3.9x less than the exact
-FFT solve in the same run (``bench integrate``); 8 floats per item is ~25 % slower, two rows
-per synthesis item slower still.
+machine a 1200^2 RGB canvas takes ~20-24 ms when the machine is quiet (16-19 ms on the
+device), 3.1-3.9x less than the exact FFT solve in the same run (``bench integrate``, medians of
+two runs); 8 floats per item is ~25 % slower, two rows per synthesis item slower still.
 """
 from __future__ import annotations
 

@@ -123,8 +123,14 @@ def _render_aperture(args, image):
 
 
 def _check_render_options(args, cls) -> None:
-    from runtime_cl.passes import get_pass, pass_names
+    from runtime_cl.integrate import get_integrator
+    from runtime_cl.passes import get_pass, integrating_passes, pass_names
 
+    if args.integrator is not None:
+        get_integrator(args.integrator)   # an unknown name: InputError naming the valid ones
+        if not cls.integrates:
+            raise UserError(f"--integrator {args.integrator}: --method {args.method} integrates no Laplacian; "
+                            f"--integrator is for --method {' / '.join(integrating_passes())}")
     if args.layers is not None and args.layers < 1:
         raise UserError(f"--layers {args.layers}: the number of depth layers must be >= 1 (1 splats "
                         "everything into one layer, without occlusion), e.g. --layers 8")
@@ -164,6 +170,9 @@ def cmd_render(args) -> int:
     if db is not None:
         check_header(db, image.camera, f"{args.input} camera")
     options, said = {}, ""
+    if args.integrator is not None:
+        options["integrator"] = args.integrator
+        said = f" ({args.integrator} integration)"
     takes = inspect.signature(cls.configure).parameters
     if args.layers is not None and "max_layers" in takes:   # a pass that traces the input's own layers
         options["max_layers"] = args.layers

@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 from runtime_cl.frame import Frame
+from runtime_cl.integrate import get_integrator, integrator_names
 from runtime_cl.passes import get_pass, pass_names, run_pass
 from runtime_cl.psf.database import SpreadletDatabase
 
-__all__ = ["load_database", "methods", "render"]
+__all__ = ["integrators", "load_database", "methods", "render"]
 
 
 def load_database(path, *, expect_model: str | None = None) -> SpreadletDatabase:
@@ -30,6 +31,11 @@ def load_database(path, *, expect_model: str | None = None) -> SpreadletDatabase
 def methods() -> dict:
     """Every registered runtime pass: name -> one-line summary."""
     return {name: get_pass(name).summary for name in pass_names()}
+
+
+def integrators() -> dict:
+    """Every registered Poisson integrator (the ``integrator`` option): name -> one-line summary."""
+    return {name: get_integrator(name).summary for name in integrator_names()}
 
 
 def render(rgb, depth, camera, db=None, *, method: str = "spreadlets", layers: int = 1, motion=None,
@@ -64,7 +70,8 @@ def render(rgb, depth, camera, db=None, *, method: str = "spreadlets", layers: i
         Default: PoCL's CPU device (or ``$SPLATLAB_CL_PLATFORM``).
     **options
         The pass's own options, e.g. ``aperture="hexagon"`` and ``layered_input=True`` for
-        ``"polygon"``, ``tile`` and ``run_max`` for the spreadlet passes.
+        ``"polygon"``, ``tile`` and ``run_max`` for the spreadlet passes, ``integrator``
+        (``"exact"``, ``"fft32"``, ``"pyramid"``: :func:`integrators`) for ``"spreadlets"``.
 
     Returns
     -------

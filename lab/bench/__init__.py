@@ -8,6 +8,8 @@ One module per benchmark:
 - :mod:`.polygon` - MHU21's exact polygonal bokeh (``bench polygon``);
 - :mod:`.spreadlet_throughput` - kernel rates on synthetic discs, and the cost of per-pixel
   rotation (``bench rotation``);
+- :mod:`.integrate` - the Poisson integrators: errors against the exact solve and times at
+  1024^2 and 4096^2 (``bench integrate``);
 - :mod:`.layered` - lens rays through peeled layers: quality and time per ray and layer count
   (``bench layered``, default scene ``scenes/foreground.toml``);
 - :mod:`.layer_cost` - layers 5-8 against 1-4 of the layered pass on a numpy fence scene
@@ -46,6 +48,12 @@ def _polygon(args) -> list:
     return [bench_polygon(args["repeats"], quick=args["quick"])]
 
 
+def _integrate(args) -> list:
+    from .integrate import bench_integrate
+
+    return [bench_integrate(args["repeats"], sizes=(1024,) if args["quick"] else (1024, 4096))]
+
+
 def _layered(args) -> list:
     from lab.paths import DEMO_SCENE, SCENES
 
@@ -63,7 +71,7 @@ def _layer_cost(args) -> list:
 
 # ``splatlab bench WHAT``: the benchmarks each name runs, in order.
 BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
-           "rotation": (_rotation,), "layered": (_layered,),
+           "rotation": (_rotation,), "integrate": (_integrate,), "layered": (_layered,),
            "layer_cost": (_layer_cost,), "all": (_precompute, _runtime)}
 
 

@@ -21,7 +21,7 @@ from runtime_cl.errors import InputError
 from runtime_cl.registry import Registry
 from runtime_cl.timing import measure
 
-__all__ = ["RuntimePass", "register_pass", "get_pass", "pass_names", "run_pass"]
+__all__ = ["RuntimePass", "register_pass", "get_pass", "integrating_passes", "pass_names", "run_pass"]
 
 _PASSES = Registry("runtime pass", sort=False)   # registration order is report order
 
@@ -48,6 +48,9 @@ class RuntimePass(abc.ABC):
     timing_reference : bool
         Whether reports compare the other passes' times against it, measured in the same run
         (LSR18's dense Splat: the machine's load cancels in the ratio).
+    integrates : bool
+        Whether it integrates a Laplacian canvas, so takes the option ``integrator`` (a name
+        from :func:`runtime_cl.integrate.integrator_names`).
     far_field : bool
         Whether it takes the option ``far_field`` (a ``volume_far`` database whose halos it adds
         to a ``volume`` database's render: :mod:`runtime_cl.psf.far_field`).
@@ -72,6 +75,7 @@ class RuntimePass(abc.ABC):
     layered: ClassVar[bool]
     draws_aperture: ClassVar[bool] = False
     timing_reference: ClassVar[bool] = False
+    integrates: ClassVar[bool] = False
     far_field: ClassVar[bool] = False
 
     def __init__(self, camera, db=None, *, layers: int = 1, device=None, **options):
@@ -115,6 +119,11 @@ def register_pass(name: str):
 def pass_names() -> list[str]:
     """Registered pass names, in registration order (the order reports list them)."""
     return _PASSES.names()
+
+
+def integrating_passes() -> list[str]:
+    """The passes that take the option ``integrator``."""
+    return [n for n in pass_names() if _PASSES.get(n).integrates]
 
 
 def get_pass(name: str) -> type:

@@ -2,8 +2,8 @@
 
 ``spreadlets`` (LSR18 section 6): each pixel splats its cell's spreadlets times its colour into
 a padded Laplacian canvas (fast-tracked cells splat their dense PSF into a second canvas); the
-Laplacian canvas is integrated exactly (``integrate.poisson_integrate``), the dense canvas added
-and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
+Laplacian canvas is integrated by the renderer's integrator (:mod:`runtime_cl.integrate`: by
+default ``exact``, ``integrate.poisson_integrate``), the dense canvas added and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
 pixel gathers with its own PSF. All three use the same PSFs, so they differ only by method.
 
 Symmetries (LSR18 section 6): a database traced in one reference orientation is drawn with each
@@ -21,7 +21,7 @@ from runtime_cl.device.opencl import Device, as_f32, event_ms, get_device
 from runtime_cl.psf.upload import DeviceDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.spreadlets.gather import GatherFilter
-from runtime_cl.integrate.poisson import poisson_integrate
+from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.psf.grid_cl import check_coords
 from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter
 
@@ -45,10 +45,16 @@ class Renderer:
     spreadlet_rotation : {"bilinear", "nearest"}
         How turned spreadlets land on pixels when :meth:`render` gets an angle (default
         ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`).
+    integrator : str
+        How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
+        (:func:`runtime_cl.integrate.integrator_names`; default ``"exact"``, the float64 FFT;
+        ``"fft32"``, ``"pyramid"``).
     """
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
-                 run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear"):
+                 run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
+                 integrator: str = DEFAULT_INTEGRATOR):
+        integrator_class = get_integrator(integrator)   # an unknown name fails before any upload
         if spreadlet_rotation not in SPREADLET_ROTATIONS:
             raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
                              f"{list(SPREADLET_ROTATIONS)}")
@@ -58,6 +64,7 @@ class Renderer:
         self.tile = tile
         self.run_max = run_max
         self.spreadlet_rotation = spreadlet_rotation
+        self.integrator = integrator_class(self.device)
         self._wrappers: dict = {}
 
     def _wrapper(self, method: str, channels: int, rotate: bool):
@@ -109,7 +116,9 @@ class Renderer:
         image : ndarray, float32, (H, W, max(C, database channels))
         timings : dict
             Milliseconds: ``upload_ms``, ``kernel_ms`` (event profiling; split into
-            ``splat_ms``/``merge_ms`` or ``filter_ms``), ``integrate_ms``, ``download_ms``,
+            ``splat_ms``/``merge_ms`` or ``filter_ms``), ``integrate_ms`` (wall clock; of it,
+            ``integrate_device_ms`` and ``integrate_transfer_ms`` are event-profiled device
+            kernels and copies of a device integrator), ``download_ms``,
             ``compile_ms`` (kernel builds this call needed; 0 once built), ``total_ms`` (wall
             clock of the whole call); counts ``pixels``, ``spreadlets``, ``dense_pixels``
             (splatted or gathered), ``tiles`` (splat work items; 0 for ``filter``);
@@ -177,20 +186,25 @@ class _Spreadlets:
     def run(cls, r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
         out = wrapper.run(colour_buf, coords_buf, h, w, r.tile, angle_buf)
         t0 = time.perf_counter()
-        image = cls.image(out, h, w)
+        image, it = cls.image(r, out, h, w)
         return image, dict(splat_ms=out.splat_ms, merge_ms=out.merge_ms, kernel_ms=out.splat_ms + out.merge_ms,
                            download_ms=out.download_ms, integrate_ms=(time.perf_counter() - t0) * 1e3,
+                           integrate_device_ms=it["device_ms"], integrate_transfer_ms=it["transfer_ms"],
                            spreadlets=out.spreadlets, dense_pixels=out.dense_pixels, tiles=out.tiles)
 
     @staticmethod
-    def image(out, h: int, w: int) -> np.ndarray:
+    def image(r: Renderer, out, h: int, w: int) -> tuple:
+        """The cropped image and the integrator's times."""
         p, lap = out.pad, out.canvas[0]
-        # an all-zero Laplacian integrates to zero; skip the FFT when nothing was splat
-        image = (poisson_integrate(lap)[p:p + h, p:p + w] if out.spreadlets
-                 else np.zeros((h, w, lap.shape[-1]), np.float32))
+        # an all-zero Laplacian integrates to zero; skip the integration when nothing was splat
+        if out.spreadlets:
+            full, times = r.integrator(lap)
+            image = full[p:p + h, p:p + w]
+        else:
+            image, times = np.zeros((h, w, lap.shape[-1]), np.float32), {"device_ms": 0.0, "transfer_ms": 0.0}
         if out.canvas.shape[0] > 1:
             image += out.canvas[1, p:p + h, p:p + w]
-        return image
+        return image, times
 
 
 class _Splat(_Spreadlets):
@@ -200,9 +214,9 @@ class _Splat(_Spreadlets):
     dense_all = True
 
     @staticmethod
-    def image(out, h: int, w: int) -> np.ndarray:
+    def image(r: Renderer, out, h: int, w: int) -> tuple:
         p = out.pad
-        return out.canvas[0, p:p + h, p:p + w].copy()
+        return out.canvas[0, p:p + h, p:p + w].copy(), {"device_ms": 0.0, "transfer_ms": 0.0}
 
 
 class _Filter:
@@ -218,7 +232,8 @@ class _Filter:
     def run(r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
         image, kernel_ms, download_ms, psf_px = wrapper.run(colour_buf, coords_buf, h, w, angle_buf)
         return image, dict(filter_ms=kernel_ms, kernel_ms=kernel_ms, download_ms=download_ms,
-                           integrate_ms=0.0, spreadlets=0, dense_pixels=psf_px, tiles=0)
+                           integrate_ms=0.0, integrate_device_ms=0.0, integrate_transfer_ms=0.0,
+                           spreadlets=0, dense_pixels=psf_px, tiles=0)
 
 
 # The methods a Renderer runs, by name: LSR18's method and its two baselines.

@@ -124,6 +124,23 @@ static float fp_f(global const float *layer, float2 a, float2 b, float w, int *c
     return h >= 0.0f ? w - h : INFINITY;
 }
 
+// One step of the bracket [n, f] around the crossing: the sample at wi replaces the far end if it
+// lies behind the surface (f <= 0), else the near end.
+static void bracket(global const float *layer, float2 a, float2 b, float wi, float *n, float *fn, float *f,
+                    float *ff, int *cf)
+{
+    int ci;
+    float fi = fp_f(layer, a, b, wi, &ci);
+    if (fi <= 0.0f) {
+        *f = wi;
+        *ff = fi;
+        *cf = ci;
+    } else {
+        *n = wi;
+        *fn = fi;
+    }
+}
+
 static void search_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
                          float thick, hit_t *best)
 {
@@ -138,31 +155,10 @@ static void search_layer(global const float *height, int k, float2 a, float2 b, 
     } else if (ff > 0.0f) {
         return;                  // in front at both ends: no crossing found
     } else {
-        for (int it = 0; it < FP_ITERS; ++it) {
-            float wi = isinf(fn) ? 0.5f * (n + f) : n - fn * (n - f) / (fn - ff);
-            int ci;
-            float fi = fp_f(layer, a, b, wi, &ci);
-            if (fi <= 0.0f) {
-                f = wi;
-                ff = fi;
-                cf = ci;
-            } else {
-                n = wi;
-                fn = fi;
-            }
-        }
-        for (int it = 0; it < BISECT && ff < -thick; ++it) {   // LES09: a binary search finishes
-            float wi = 0.5f * (n + f);
-            int ci;
-            float fi = fp_f(layer, a, b, wi, &ci);
-            if (fi <= 0.0f) {
-                f = wi;
-                ff = fi;
-                cf = ci;
-            } else {
-                n = wi;
-            }
-        }
+        for (int it = 0; it < FP_ITERS; ++it)
+            bracket(layer, a, b, isinf(fn) ? 0.5f * (n + f) : n - fn * (n - f) / (fn - ff), &n, &fn, &f, &ff, &cf);
+        for (int it = 0; it < BISECT && ff < -thick; ++it)   // LES09: a binary search finishes
+            bracket(layer, a, b, 0.5f * (n + f), &n, &fn, &f, &ff, &cf);
     }
     if (ff >= -thick && f > best->w) {
         best->w = f;

@@ -115,10 +115,9 @@ def _volume(table: dict, scene, image) -> dict:
 def near_window_px(scene) -> int:
     """The half-width in pixels of the image the scene's volume PSFs keep (their window less the
     tracer's margin): the far field (``volume_far``) holds the halo beyond it."""
+    from .psf_tracing.models.common import check_number
     from .psf_tracing.models.simple_lens import PSF_MARGIN_PX
     from .psf_tracing.models.volume_config import VolumeConfig
-
-    from .psf_tracing.models.common import check_number
 
     resolution = scene.psf.get("volume", {}).get("psf_resolution", VolumeConfig.psf_resolution)
     try:

@@ -9,9 +9,10 @@ further seeds, and stores in the baseline the tolerances CI checks against (``ma
   0.005). Another seed moves every figure by about that much, so a change within it (a new
   random stream, a reordered sum) is no regression; a drop of 3 sigma is one.
 - ``slowdown``: 1 + twice the largest relative spread (max / min - 1) of a method's time over
-  the timing reference's, over all runs (at least 1.5): the machine is shared, and at 64^2 a
-  frame takes milliseconds, so only a change well past the spread is a slowdown. The timing
-  reference's own time is not checked: only ratios measured in the same run are.
+  the timing reference's, over all runs, and at least 4: at 64^2 a frame takes 1-5 ms, and on
+  this shared 2-core machine that ratio moved by up to 3.6x between runs while other jobs ran
+  (1.3-1.9x on a quiet machine, 2026-12-02), so only a change well past that is a slowdown. The
+  timing reference's own time is not checked: only ratios measured in the same run are.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from ..paths import REPORTS, ROOT, SCENES
 
 BASELINES = REPORTS / "baselines"
 SCENE_FILES = ("tiny.toml", "tiny_motion.toml", "tiny_heart.toml", "tiny_fog.toml")
+SLOWDOWN_FLOOR = 4.0   # the module docstring: the load's own effect on millisecond frames
 
 
 def tolerances(reports: list[dict]) -> dict:
@@ -41,10 +43,10 @@ def tolerances(reports: list[dict]) -> dict:
         if len(ratios) > 1 and m != reports[0].get("timing_reference"):
             spread[m] = max(ratios) / min(ratios)
     return {"ssim_drop": max(0.005, 3.0 * max(sd.values(), default=0.0)),
-            "slowdown": max(1.5, 1.0 + 2.0 * (max(spread.values(), default=1.0) - 1.0)),
+            "slowdown": max(SLOWDOWN_FLOOR, 1.0 + 2.0 * (max(spread.values(), default=1.0) - 1.0)),
             "evidence": {"seeds": [r["settings"]["render"]["seed"] for r in reports],
                          "ssim_sd": sd, "time_ratio_spread": spread,
-                         "rule": "ssim_drop = max(0.005, 3 sd of SSIM over seeds); slowdown = max(1.5, 1 + 2 (s - 1)), "
+                         "rule": f"ssim_drop = max(0.005, 3 sd of SSIM over seeds); slowdown = max({SLOWDOWN_FLOOR:g}, 1 + 2 (s - 1)), "
                                  "s = max/min of time / timing reference over the runs"}}
 
 

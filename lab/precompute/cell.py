@@ -20,11 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from lab.errors import UserError
+from lab.parallel import set_threads, threads_here
 
 from .naming import source_digest
 from .shards import summary, write_shard
 
-__all__ = ["dense_crop", "landed_rays", "build_cell", "CellJob", "run_cell", "set_threads"]
+__all__ = ["dense_crop", "landed_rays", "build_cell", "CellJob", "run_cell"]
 
 
 def dense_crop(psf: np.ndarray) -> np.ndarray:
@@ -114,27 +115,6 @@ def _model(job: CellJob):
     return _MODELS[key]
 
 
-def _threads_for_this_process(threads):
-    if isinstance(threads, dict):
-        try:
-            from distributed import get_worker
-
-            return threads.get(get_worker().address)
-        except (ImportError, ValueError):
-            return None
-    return threads
-
-
-def set_threads(n: int | None) -> None:
-    """Set Dr.Jit's thread pool to ``n`` threads (None: leave it)."""
-    if n is None:
-        return
-    import drjit as dr
-
-    if dr.thread_count() != n:
-        dr.set_thread_count(int(n))
-
-
 def run_cell(job: CellJob, cell: int, folder: str | None = None) -> dict:
     """Compute cell ``cell`` of ``job`` in this process.
 
@@ -161,7 +141,7 @@ def run_cell(job: CellJob, cell: int, folder: str | None = None) -> dict:
         raise UserError(f"precompute worker on {socket.gethostname()}: its splatlab code (digest "
                         f"{mine[:12]}) differs from the job's ({job.code[:12]}); install the same "
                         "splatlab version on every worker and restart them")
-    set_threads(_threads_for_this_process(job.threads))
+    set_threads(threads_here(job.threads))
     shard = build_cell(_model(job), int(cell))
     if folder is None:
         return shard

@@ -41,15 +41,14 @@ def compare(baseline: dict, new: dict, ssim_drop: float | None = None, slowdown:
     out = []
     scene = new.get("scene", {}).get("name", "?")
     base_m, new_m = baseline["methods"], new["methods"]
-    shared = baseline.get("timing_reference")
-    shared = shared if shared is not None and shared == new.get("timing_reference") else None
+    ref = baseline.get("timing_reference")
+    ref = ref if ref == new.get("timing_reference") and ref in base_m and ref in new_m else None
     for name in sorted(set(base_m) & set(new_m)):
         b, n = base_m[name], new_m[name]
         if n["ssim"] < b["ssim"] - ssim_drop:
             out.append(f"{scene} {name}: SSIM {b['ssim']:.4f} -> {n['ssim']:.4f} (dropped more than {ssim_drop:.4g})")
-        if shared is not None and name == shared and shared in base_m and shared in new_m:
+        if name == ref:
             continue  # its own time is the machine's load; the others are measured against it
-        ref = shared if shared in base_m and shared in new_m else None
         bt = b["time_ms"] / base_m[ref]["time_ms"] if ref else b["time_ms"]
         nt = n["time_ms"] / new_m[ref]["time_ms"] if ref else n["time_ms"]
         if nt > bt * slowdown:

@@ -19,6 +19,8 @@ of pixels.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from runtime_cl.coords.lens import light_distance
@@ -38,6 +40,18 @@ except ImportError:
         return n
 
 MODEL = "volume_far"
+
+
+class Prepared(NamedTuple):
+    """:meth:`FarField.prepare`'s per-pixel samples: ``k0``, ``k1`` (indices into the sorted
+    distances), ``f`` (the weight of ``k1``), ``blocks`` (rows, columns of blocks) and ``bins``:
+    for each of the two samples, every pixel's index into the (sample, block) sums and its weight."""
+
+    k0: np.ndarray
+    k1: np.ndarray
+    f: np.ndarray
+    blocks: tuple
+    bins: tuple
 
 
 def sample_distances(db: SpreadletDatabase) -> np.ndarray:
@@ -93,13 +107,21 @@ class FarField:
         self.distance = distance[self.order]
         self._spectra: dict = {}
 
-    def prepare(self, camera, depth) -> tuple:
-        """Per pixel: its two samples and their weights (linear in distance, clamped at the ends)."""
+    def prepare(self, camera, depth) -> "Prepared":
+        """Per pixel: its two samples and their weights (linear in distance, clamped at the ends),
+        and where each lands in the per-sample block sums (not timed: the frame's geometry)."""
         d = light_distance(camera, depth)
-        x = np.interp(d, self.distance, np.arange(len(self.distance)))
-        k0 = np.minimum(np.floor(x).astype(np.int64), len(self.distance) - 1)
+        h, w = d.shape
+        n_k = len(self.distance)
+        x = np.interp(d, self.distance, np.arange(n_k))
+        k0 = np.minimum(np.floor(x).astype(np.int64), n_k - 1)
+        k1 = np.minimum(k0 + 1, n_k - 1)
         f = (x - k0).astype(np.float32)
-        return k0, np.minimum(k0 + 1, len(self.distance) - 1), f
+        s = self.scale
+        hc, wc = -(-h // s), -(-w // s)
+        block = ((np.arange(h) // s)[:, None] * wc + (np.arange(w) // s)[None, :]).ravel()
+        bins = tuple((k.ravel() * (hc * wc) + block, weight.ravel()) for k, weight in ((k0, 1.0 - f), (k1, f)))
+        return Prepared(k0, k1, f, (hc, wc), bins)
 
     def _psf_spectra(self, shape: tuple) -> np.ndarray:
         """(K, fy, fx, C) complex: the rfft2 of every sample's far PSF, centred at (0, 0), on ``shape``."""
@@ -117,24 +139,19 @@ class FarField:
 
     def render(self, rgb, prepared) -> np.ndarray:
         """(H, W, C) float32: the far field of colours ``rgb`` (H, W, CC) given :meth:`prepare`'s."""
-        k0, k1, f = prepared
         rgb = np.asarray(rgb, np.float32)
         h, w = rgb.shape[:2]
         s = self.scale
-        hc, wc = -(-h // s), -(-w // s)
+        hc, wc = prepared.blocks
         r = max(int(self.db.dense_radius.max()), 0)
         shape = (_fast_len(hc + 2 * r, True), _fast_len(wc + 2 * r, True))
         n_k = len(self.distance)
-        block = ((np.arange(h) // s)[:, None] * wc + (np.arange(w) // s)[None, :]).ravel()
         channels = max(rgb.shape[2], self.db.channels)
         colour = np.broadcast_to(rgb, (h, w, channels)).reshape(-1, channels)
-        nb = hc * wc
         summed = np.zeros((n_k, hc, wc, channels), np.float32)
-        for k, weight in ((k0, 1.0 - f), (k1, f)):
-            index = k.ravel() * nb + block
-            wt = weight.ravel()
+        for index, weight in prepared.bins:
             for c in range(channels):
-                summed[..., c] += np.bincount(index, colour[:, c] * wt, minlength=n_k * nb).reshape(n_k, hc, wc)
+                summed[..., c] += np.bincount(index, colour[:, c] * weight, minlength=n_k * hc * wc).reshape(n_k, hc, wc)
         used = np.flatnonzero(summed.reshape(n_k, -1).any(axis=1))
         spectra = self._psf_spectra(shape)
         total = None

@@ -26,7 +26,7 @@ def far_database(rng, scale=4, radius=6, model="volume_far", hole=5, samples=4, 
 def brute_force(far, rgb, prepared):
     """Every pixel's colour, split between its two samples, times the sample's far PSF placed at
     its block, summed per block and divided by s^2, then upsampled (float64)."""
-    k0, k1, f = prepared
+    k0, k1, f = prepared.k0, prepared.k1, prepared.f
     s = far.scale
     h, w = rgb.shape[:2]
     hc, wc = -(-h // s), -(-w // s)
@@ -66,7 +66,8 @@ def test_samples_are_interpolated_linearly_in_distance():
     cam = Pinhole(fov_deg=40.0)
     # one centre pixel (distance = depth) at a sample, between two, beyond the last
     for depth, want in ((d[1], {1: 1.0}), (0.75 * d[1] + 0.25 * d[2], {1: 0.75, 2: 0.25}), (2.99, {len(d) - 1: 1.0})):
-        k0, k1, f = far.prepare(cam, np.full((1, 1), depth, np.float32))
+        p = far.prepare(cam, np.full((1, 1), depth, np.float32))
+        k0, k1, f = p.k0, p.k1, p.f
         weights = np.zeros(len(d))
         np.add.at(weights, [k0[0, 0], k1[0, 0]], [1.0 - f[0, 0], f[0, 0]])
         expected = np.zeros(len(d))

@@ -35,6 +35,18 @@ __all__ = ["Camera", "Vec3", "camera_names", "get_camera", "header_camera", "mot
 Vec3 = tuple[float, float, float]
 
 _CAMERAS = Registry("camera model")
+LENS_RAYS = 100    # lens rays per pixel of the layered pass when [render] lens_rays is not given
+
+
+def with_layered_pass(rule: dict, scene) -> dict:
+    """``rule`` plus, with ``[render] peel_layers``, LES10's lens rays through the umbra-peeled
+    layers of the input: the ``layered`` pass with ``[render] lens_rays`` rays."""
+    r = scene.render
+    if r.peel_layers is not None:
+        rule["runtime_passes"] += ("layered",)
+        rule["pass_runs"] = {**rule.get("pass_runs", {}),
+                             "layered": ("layered", {"rays": r.lens_rays or LENS_RAYS, "layered_input": True})}
+    return rule
 register_camera = _CAMERAS.register
 camera_names = _CAMERAS.names
 get_camera = _CAMERAS.get

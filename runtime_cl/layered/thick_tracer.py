@@ -85,7 +85,7 @@ class ThickLayerTracer(LayerTracer):
         """
         if not (math.isfinite(thickness_px) and thickness_px >= 0):
             raise InputError(f"thickness_px = {thickness_px!r}: the surfel slab depth must be >= 0 pixels")
-        events, wmax, _ = self._upload(stack)
+        events, wmax = self._upload(stack)
         cl, q, b = self.cl, self.device.queue, self.buf
         gsize = (-(-self.w // 8) * 8, -(-self.h // 8) * 8)
         kernel = self._render_thick(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["samples"],
@@ -96,7 +96,7 @@ class ThickLayerTracer(LayerTracer):
         down = [cl.enqueue_copy(q, out, b["out"], wait_for=[kernel], is_blocking=False),
                 cl.enqueue_copy(q, stats, b["stats"], wait_for=[kernel], is_blocking=False)]
         transfer = event_ms(*events, *down)
-        info = {"kernel_ms": event_ms(kernel), "transfer_ms": transfer,
+        info = {"kernel_ms": event_ms(kernel, *self.nbuffer_events), "transfer_ms": transfer,
                 "rays_hit": int(round(float(out[..., 3].sum()) * 3)), "rays_left_image": int(stats[..., 0].sum()),
                 "rays_missed": int(stats[..., 1].sum()), "rays_blocked": int(stats[..., 2].sum()),
                 "pixels_no_hit": int((out[..., 3] <= 0).sum())}

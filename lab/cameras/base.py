@@ -35,6 +35,9 @@ __all__ = ["Camera", "Vec3", "camera_names", "get_camera", "header_camera", "mot
 Vec3 = tuple[float, float, float]
 
 _CAMERAS = Registry("camera model")
+register_camera = _CAMERAS.register
+camera_names = _CAMERAS.names
+get_camera = _CAMERAS.get
 LENS_RAYS = 100    # lens rays per pixel of the layered pass when [render] lens_rays is not given
 
 
@@ -47,9 +50,6 @@ def with_layered_pass(rule: dict, scene) -> dict:
         rule["pass_runs"] = {**rule.get("pass_runs", {}),
                              "layered": ("layered", {"rays": r.lens_rays or LENS_RAYS, "layered_input": True})}
     return rule
-register_camera = _CAMERAS.register
-camera_names = _CAMERAS.names
-get_camera = _CAMERAS.get
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 Each output pixel traces ``rays`` lens rays of the header's lens -- a thin lens, or a thick lens
 through its surfaces with per-channel indices (:mod:`runtime_cl.layered.lenses`) -- through the
-frame's layers, nearest first, as surfel height fields (:mod:`runtime_cl.layered.tracer`, ``kernels/layered/trace.cl``):
+frame's layers, nearest first, as surfel height fields (:mod:`runtime_cl.layered.tracer`):
 min/max clamping with N-buffers over down-sampled layers, empty layers culled, an exact walk of
 what is left; jittered Halton lens samples with per-pixel offsets. Rays that leave the image or
 find nothing are dropped from the pixel's mean (LES09 4.3). No database.

@@ -20,7 +20,7 @@ from lab.bench.layered_plot import equal_quality_speedup, plot_layered
 __all__ = ["bench_layered", "RAYS"]
 
 RAYS = (8, 32, 100, 256)
-MITSUBA_SPP = (1, 4, 16, 64)
+MITSUBA_SPP = (1, 4, 16, 64, 256, 1024)
 
 
 def _timed(call, repeats: int) -> tuple:

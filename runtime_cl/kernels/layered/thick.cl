@@ -1,5 +1,5 @@
 // Lens rays of a thick lens through layered height fields: built after camera/lens_trace.cl (the
-// reversed lens, LENS_* constants) and layered/trace.cl (trace_ray, nbuffer_query, hash_u32).
+// reversed lens, LENS_* constants) and layered/trace.cl (trace_ray, nbuffer_query, own_colour, hash_u32).
 //
 // A pixel's sensor point s sends backward rays aimed at points of the exit-pupil box of its
 // radius (runtime_cl/camera/exit_pupil.py) through the lens, per channel with that channel's
@@ -118,12 +118,8 @@ kernel void render_thick(global const float *height, global const float4 *colour
             wsum[ch] += weight;
             ++hit_n;
         }
-    float4 own = (float4)0.0f;   // a channel no ray hit: the nearest layer's own pixel, if any
-    for (int k = 0; k < NL; ++k)
-        if (height[(size_t)k * W * H + y * W + x] >= 0.0f) {
-            own = colour[(size_t)k * W * H + y * W + x];
-            break;
-        }
+    bool found;   // a channel no ray hit: the nearest layer's own pixel, if any (else 0)
+    float4 own = own_colour(height, colour, x, y, &found);
     float res[3] = {own.x, own.y, own.z};
     for (int ch = 0; ch < NCH; ++ch)
         if (wsum[ch] > 0.0f)

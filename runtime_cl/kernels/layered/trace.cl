@@ -233,6 +233,18 @@ static void pixel_ranges(global const float2 *nbuf, global const float2 *range, 
     }
 }
 
+// The colour of the nearest layer that holds something at pixel (x, y); *found: one does.
+static float4 own_colour(global const float *height, global const float4 *colour, int x, int y, bool *found)
+{
+    for (int k = 0; k < NL; ++k)
+        if (height[(size_t)k * W * H + y * W + x] >= 0.0f) {
+            *found = true;
+            return colour[(size_t)k * W * H + y * W + x];
+        }
+    *found = false;
+    return (float4)0.0f;
+}
+
 static uint hash_u32(uint x)
 {
     x ^= x >> 16;
@@ -302,12 +314,13 @@ kernel void render(global const float *height, global const float4 *colour, glob
     float hits = (float)(NRAYS - left_n - miss_n);
     if (weight > 0.0f) {
         sum /= weight;
-    } else {   // no ray hit: the nearest layer's own pixel, if any
-        for (int k = 0; k < NL && hits == 0.0f; ++k)
-            if (height[(size_t)k * W * H + y * W + x] >= 0.0f) {
-                sum = colour[(size_t)k * W * H + y * W + x];
-                hits = -1.0f;
-            }
+    } else if (hits == 0.0f) {   // no ray hit: the nearest layer's own pixel, if any
+        bool found;
+        float4 own = own_colour(height, colour, x, y, &found);
+        if (found) {
+            sum = own;
+            hits = -1.0f;
+        }
     }
     sum.w = hits;
     out[y * W + x] = sum;

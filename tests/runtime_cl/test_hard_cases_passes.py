@@ -11,7 +11,7 @@ from polygon_reference import shape, splat_float64
 import runtime_cl
 from runtime_cl.camera.thin_lens import ThinLens
 from runtime_cl.coords.maps import psf_coords
-from runtime_cl.passes import pass_names
+from runtime_cl.passes import get_pass, pass_names
 from runtime_cl.polygon.splat import PolygonSplatter
 from runtime_cl.psf.synthetic import disc_database
 
@@ -28,14 +28,14 @@ def hexagon():
 
 
 def options(method):
-    """Each pass's database and options for a one-layer flat input."""
-    if method in ("spreadlets", "splat", "filter"):
-        return DB, {}
-    if method == "polygon":
-        return None, {"aperture": hexagon()}
+    """Each pass's database and options for a one-layer flat input, from what it declares (so a
+    newly registered pass is covered too)."""
+    cls = get_pass(method)
+    db = None if cls.database_models == () else DB
+    opts = {"aperture": hexagon()} if cls.draws_aperture else {}
     if method == "layered":
-        return None, {"rays": 16}
-    return None, {}
+        opts["rays"] = 16
+    return db, opts
 
 
 def every_pass():

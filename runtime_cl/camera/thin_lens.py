@@ -8,8 +8,9 @@ sensor ``sensor_width`` wide:
 
     r(z) = a v W / sensor_width * (1/F - 1/z)
 
-signed: positive behind the focus plane, negative in front. Written with 1/z so z = inf
-(background at infinity) is exact.
+signed: positive behind the focus plane, negative in front. Written with 1/z and 1/F so z = inf
+(background at infinity) and F = inf (focus at infinity: v = f, every finite depth in front) are
+exact.
 """
 from __future__ import annotations
 
@@ -34,7 +35,8 @@ class ThinLens:
     f_number : float
         f-number N (> 0); the aperture radius is f / (2 N).
     focus_distance_m : float
-        Distance F of the plane in focus, in metres; must exceed the focal length.
+        Distance F of the plane in focus, in metres; must exceed the focal length; ``inf``
+        focuses at infinity.
     sensor_width_mm : float
         Sensor width in millimetres (> 0); the image width in pixels spans it.
     """
@@ -48,8 +50,10 @@ class ThinLens:
     def __post_init__(self):
         for name in ("focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm"):
             value = getattr(self, name)
-            if not (is_number(value) and value > 0):   # a JSON true is not 1 mm
-                raise InputError(f"camera {name} = {value!r}: must be a finite number > 0")
+            infinite_ok = name == "focus_distance_m"      # focus at infinity; NaN fails "> 0"
+            if not (is_number(value, finite=not infinite_ok) and value > 0):   # a JSON true is not 1 mm
+                raise InputError(f"camera {name} = {value!r}: must be a finite number > 0"
+                                 + (" (or inf: focus at infinity)" if infinite_ok else ""))
         if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
             raise InputError(
                 f"camera focus_distance_m = {self.focus_distance_m}: a lens of focal length "
@@ -63,6 +67,8 @@ class ThinLens:
     @property
     def image_distance_m(self) -> float:
         f = self.focal_length_mm / 1000.0
+        if math.isinf(self.focus_distance_m):                # focused at infinity: the focal plane
+            return f
         return f * self.focus_distance_m / (self.focus_distance_m - f)
 
     def fov_x_deg(self) -> float:

@@ -122,9 +122,10 @@ def in_range(name: str, values: np.ndarray, db: SpreadletDatabase, dim: int, uni
                          f"{unit} (largest found {largest:.4g} {unit}, smallest {smallest:.4g} {unit}); "
                          f"{fix(smallest, largest)}")
     top, bottom = np.float32(hi), np.float32(lo)
-    if top > hi:
+    # compare in float64: NumPy 2 (NEP 50) would compare a float32 with a Python float in float32
+    if float(top) > hi:
         top = np.nextafter(top, np.float32(-np.inf))
-    if bottom < lo:
+    if float(bottom) < lo:
         bottom = np.nextafter(bottom, np.float32(np.inf))
     return np.clip(values.astype(np.float32), bottom, top)
 

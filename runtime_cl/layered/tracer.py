@@ -250,9 +250,10 @@ class LayerTracer:
             ``kernel_ms``, ``transfer_ms`` (event-profiled) and ray counts: ``rays_hit``,
             ``rays_left_image``, ``rays_missed`` (holes), ``pixels_no_hit``.
         """
-        if not (math.isfinite(coc_scale) and coc_scale > 0 and math.isfinite(focus_m) and focus_m > 0):
+        # focus_m = inf (focused at infinity) is exact: the kernel takes 1/focus_m = 0
+        if not (math.isfinite(coc_scale) and coc_scale > 0 and focus_m > 0):   # NaN fails "> 0"
             raise InputError(f"coc_scale = {coc_scale!r}, focus_m = {focus_m!r}: need a lens with an "
-                             "aperture (> 0) and a finite focus distance > 0")
+                             "aperture (> 0) and a focus distance > 0 (inf: focused at infinity)")
         if not (math.isfinite(thickness_px) and thickness_px >= 0):
             raise InputError(f"thickness_px = {thickness_px!r}: the surfel slab depth must be >= 0 pixels")
         events, wmax = self._upload(stack)

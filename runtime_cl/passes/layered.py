@@ -107,13 +107,14 @@ class LayeredPass(RuntimePass):
                                              pixel_iters=self.pixel_iters, false_position=self.false_position,
                                              cone=self.cone,
                                              device=self.device)
-        width = stack.shape[1]
-        return self._tracers[key], stack, float(self.camera.coc_scale_px(width))
+        height, width = stack.shape
+        focus = self.camera.inverse_focus_map(height, width) if getattr(self.camera, "has_focal_map", False) else None
+        return self._tracers[key], stack, float(self.camera.coc_scale_px(width)), focus
 
     def __call__(self, prepared):
-        tracer, stack, scale = prepared
+        tracer, stack, scale, focus = prepared
         image, info = tracer.render(stack, scale, float(self.camera.focus_distance_m), self.thickness_px,
-                                    self.seed)
+                                    self.seed, inv_focus_map=focus)
         counts = {"pixels": int(image.shape[0] * image.shape[1]), "rays": self.rays,
                   "input_layers": int(len(stack.inv_depth)), "occupancy": stack.occupancy(),
                   **{k: v for k, v in info.items() if not k.endswith("_ms")}}

@@ -1,0 +1,137 @@
+"""Focus control from pixels (LES10 5.1): a focus point, and tilt-shift from several.
+
+``[camera] focus_point = [x, y]`` (pixel column, row from the top) focuses the lens at the depth
+the labelled input sees there (its Z); ``focus_points = [[x, y], ...]`` (>= 3, thin lens) fits a
+plane through the 3-D points they see by least squares and tilts the sensor so the plane is in
+focus (Scheimpflug, :func:`runtime_cl.camera.focal_surface.scheimpflug_tilt`).
+
+The input's field of view depends on the focus (a thin lens breathes: the image distance moves),
+so the depth a pixel sees does too: :func:`resolve_focus` iterates focus -> pinhole depths ->
+focus until the distance changes by < 1e-7 relative (a couple of rounds; the input rendered with
+the result then sees the same depth there). The depths are Mitsuba's pixel-centre rays, the Z of
+:func:`lab.reference.labelled.planar_depth`.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from runtime_cl.camera.focal_surface import chief_directions, scheimpflug_tilt
+
+from .errors import UserError
+
+__all__ = ["check_pixels", "depth_at", "fit_plane", "refocus_header", "resolve_focus"]
+
+ROUNDS = 12           # fixed-point rounds; focus breathing converges in 2-4
+TOLERANCE = 1e-7      # relative change of the focus distance that ends them
+START_M = 1000.0      # the focus of the first round (any: the next round corrects it)
+
+
+def check_pixels(pixels, width: int, height: int, key: str) -> None:
+    """UserError naming ``key`` unless every [x, y] lies inside a ``width`` x ``height`` image."""
+    for x, y in pixels:
+        if not (0 <= x < width and 0 <= y < height):
+            raise UserError(f"{key} [{x}, {y}] is outside the {width} x {height} image; give a pixel with "
+                            f"0 <= x < {width} and 0 <= y < {height} (column, row from the top)")
+
+
+def depth_at(depth: np.ndarray, x: int, y: int, key: str) -> float:
+    """The depth at pixel (x, y); UserError naming the pixel and a nearby pixel that sees a surface
+    when it sees none (sky: Z = inf or A = 0 there)."""
+    z = float(depth[y, x])
+    if np.isfinite(z) and z > 0:
+        return z
+    valid = np.argwhere(np.isfinite(depth) & (depth > 0))
+    hint = "nothing in the image has a surface"
+    if len(valid):
+        ny, nx = valid[np.argmin((valid[:, 0] - y) ** 2 + (valid[:, 1] - x) ** 2)]
+        hint = f"pick a pixel on a surface, e.g. the nearest one, [{nx}, {ny}]"
+    raise UserError(f"{key} [{x}, {y}] sees no surface (sky: Z = {z}), so it has no depth to focus on; {hint}")
+
+
+def fit_plane(points: np.ndarray, key: str) -> tuple:
+    """The least-squares plane n . X = c (|n| = 1) through (n, 3) points (total least squares: the
+    normal is the singular vector of the centred points' least singular value); UserError when they
+    are (nearly) collinear, so no plane is determined."""
+    centre = points.mean(axis=0)
+    _, s, vt = np.linalg.svd(points - centre)
+    if len(points) < 3 or s[1] <= 1e-6 * max(s[0], 1e-12):
+        raise UserError(f"{key}: the points they see are collinear (singular values {np.round(s, 6).tolist()}), "
+                        "so they fit no plane; add a focus point off their line")
+    n = vt[2]
+    return n, float(n @ centre)
+
+
+def _seen_points(camera, depth: np.ndarray, pixels, key: str) -> np.ndarray:
+    """Camera-space points (x right, y up, z forward; metres) the ``pixels`` see in ``depth``."""
+    h, w = depth.shape
+    dx, dy = chief_directions(h, w, camera.runtime_camera().focal_px(w))
+    out = []
+    for x, y in pixels:
+        z = depth_at(depth, x, y, key)
+        out.append((z * dx[y, x], z * dy[y, x], z))
+    return np.asarray(out)
+
+
+def _focus_from(camera, depth: np.ndarray) -> dict:
+    """The camera fields a depth map gives: focus distance (and sensor tilt for focus_points)."""
+    if camera.focus_point is not None:
+        x, y = camera.focus_point
+        return {"focus_distance_m": depth_at(depth, x, y, "focus_point")}
+    points = _seen_points(camera, depth, camera.focus_points, "focus_points")
+    n, c = fit_plane(points, "focus_points")
+    try:
+        focus, tilt = scheimpflug_tilt(n, c, camera.focal_length_mm / 1000.0)
+    except UserError as exc:
+        raise UserError(f"focus_points {[list(p) for p in camera.focus_points]}: {exc}") from None
+    return {"focus_distance_m": focus, "sensor_tilt_deg": tilt}
+
+
+def resolve_focus(scene):
+    """``scene`` with its camera focused as its ``focus_point`` / ``focus_points`` ask (unchanged
+    without them); UserError naming the scene file and the key for a pixel outside the image, on
+    the sky, or points that fit no usable focal plane."""
+    cam = scene.camera
+    if getattr(cam, "focus_point", None) is None and getattr(cam, "focus_points", None) is None:
+        return scene
+    from .reference.labelled import planar_depth
+
+    where = f"{scene.source} [camera]"
+    pixels = [cam.focus_point] if cam.focus_point is not None else cam.focus_points
+    try:
+        check_pixels(pixels, scene.width, scene.height, "focus_point" if cam.focus_point is not None else "focus_points")
+        current = cam.focus_distance_m or START_M
+        for _ in range(ROUNDS):
+            trial = replace(scene, camera=replace(cam, focus_distance_m=current))
+            fields = _focus_from(trial.camera, planar_depth(trial))
+            done = abs(fields["focus_distance_m"] - current) <= TOLERANCE * current
+            current = fields["focus_distance_m"]
+            if done:
+                break
+    except UserError as exc:
+        raise UserError(f"{where} {exc}") from None
+    return replace(scene, camera=replace(cam, **fields))
+
+
+def refocus_header(camera: dict, depth: np.ndarray, x: int, y: int, source: str) -> dict:
+    """The ``splatlab.camera`` header ``camera`` focused at pixel (x, y) of ``depth`` (the input's
+    Z): ``splatlab render --focus-point X,Y``. The thin lens takes the depth as its focus
+    distance; the thick lens moves its sensor there (its paraxial figures re-derived by the lab)."""
+    h, w = depth.shape
+    check_pixels([(x, y)], w, h, "--focus-point")
+    z = depth_at(depth, x, y, "--focus-point")
+    lens = camera.get("lens")
+    if lens == "thin":
+        if "sensor_tilt_deg" in camera or "focal_surface" in camera:
+            raise UserError(f"--focus-point {x},{y}: {source} has a tilted or expressive focus; a focus point sets "
+                            "one distance for the whole image: remove it from the header (--camera) first")
+        return dict(camera, focus_distance_m=z, focus_points=[[x, y]])
+    if lens == "thick":
+        from .cameras.thick import ThickCamera
+
+        thick = ThickCamera(model="thick", position=(0.0, 0.0, 0.0), look_at=(0.0, 0.0, 1.0),
+                            surfaces=camera["surfaces"], focus_distance_m=z,
+                            sensor_width_mm=camera["sensor_width_mm"])
+        return {**thick.runtime_camera().to_json(), "shutter": camera.get("shutter", [0.0, 1.0])}
+    raise UserError(f"--focus-point {x},{y}: {source} lens = {lens!r} has no focus; use a thin or thick lens header")

@@ -21,7 +21,7 @@ from runtime_cl.camera.focal_surface import chief_directions, scheimpflug_tilt
 
 from .errors import UserError
 
-__all__ = ["check_pixels", "depth_at", "fit_plane", "refocus_header", "resolve_focus"]
+__all__ = ["check_pixels", "depth_at", "fit_plane", "refocus_header", "refocus_option", "resolve_focus"]
 
 ROUNDS = 12           # fixed-point rounds; focus breathing converges in 2-4
 TOLERANCE = 1e-7      # relative change of the focus distance that ends them
@@ -135,3 +135,17 @@ def refocus_header(camera: dict, depth: np.ndarray, x: int, y: int, source: str)
                             sensor_width_mm=camera["sensor_width_mm"])
         return {**thick.runtime_camera().to_json(), "shutter": camera.get("shutter", [0.0, 1.0])}
     raise UserError(f"--focus-point {x},{y}: {source} lens = {lens!r} has no focus; use a thin or thick lens header")
+
+
+def refocus_option(image, text: str, source: str):
+    """``image`` (a :class:`lab.exr_io.LabelledImage`) with its header focused at ``--focus-point
+    X,Y`` (``text``); a pixel with coverage A = 0 sees no surface."""
+    from dataclasses import replace as replace_image
+
+    try:
+        x, y = (int(v) for v in text.split(","))
+    except ValueError:
+        raise UserError(f"--focus-point {text!r}: give the pixel as X,Y (column, row from the top), e.g. "
+                        "--focus-point 120,80") from None
+    depth = np.where(np.asarray(image.alpha) > 0, np.asarray(image.depth, np.float64), np.inf)
+    return replace_image(image, camera=refocus_header(image.camera, depth, x, y, source))

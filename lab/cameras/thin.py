@@ -25,6 +25,7 @@ import math
 import typing
 from dataclasses import dataclass
 
+from runtime_cl.camera.focal_surface import read_surface
 from runtime_cl.camera.thin_lens import ThinLens
 
 from ..config import from_table
@@ -62,6 +63,10 @@ class ThinCamera(Camera):
         Instead of ``focus_distance_m``: >= 3 pixels; the sensor tilts to focus their plane.
     sensor_tilt_deg : (float, float), default (0, 0)
         Sensor tilt (Scheimpflug) about the image's y and x axes, by hand or from ``focus_points``.
+    focal_surface : dict, optional
+        Expressive focus (LES10 5.2): ``{ points = [[x, y, depth_m], ...], beta = 2, dof_extent = 1 }``
+        (:func:`runtime_cl.camera.focal_surface.read_surface`); no physical reference, so for
+        ``splatlab render --camera FILE.toml`` only.
     """
 
     runtime = ThinLens
@@ -73,6 +78,7 @@ class ThinCamera(Camera):
     focus_point: tuple[int, int] | None = None
     focus_points: tuple[tuple[int, int], ...] | None = None
     sensor_tilt_deg: tuple[float, float] = (0.0, 0.0)
+    focal_surface: dict | None = None
 
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThinCamera":
@@ -105,6 +111,14 @@ class ThinCamera(Camera):
         if self.focus_points is not None and len(self.focus_points) < 3:
             raise UserError(f"focus_points = {[list(p) for p in self.focus_points]}: a focal plane needs >= 3 "
                             "points; give more, or one focus_point = [x, y]")
+        if self.focal_surface is not None:
+            try:
+                read_surface(self.focal_surface, "")
+            except UserError as exc:
+                raise UserError(str(exc).strip()) from None
+            if self.focus_distance_m is None:
+                raise UserError("focal_surface: give focus_distance_m too (it sets the lens's image distance, so the "
+                                "field of view)")
         tilt = self.sensor_tilt_deg != (0.0, 0.0) or self.focus_points is not None
         if tilt and self.aperture is not None:
             raise UserError(f"aperture = {self.aperture!r} with a tilted sensor: the tilt-shift reference traces a "
@@ -144,7 +158,8 @@ class ThinCamera(Camera):
         pixels = [self.focus_point] if self.focus_point is not None else list(self.focus_points or ())
         return ThinLens(focal_length_mm=self.focal_length_mm, f_number=n,
                         focus_distance_m=self.focus_distance_m, sensor_width_mm=self.sensor_width_mm,
-                        sensor_tilt_deg=self.sensor_tilt_deg, focus_points=tuple(tuple(p) for p in pixels))
+                        sensor_tilt_deg=self.sensor_tilt_deg, focus_points=tuple(tuple(p) for p in pixels),
+                        focal_surface=self.focal_surface)
 
     def thin_lens(self) -> ThinLens:
         return self.runtime_camera()
@@ -173,6 +188,10 @@ class ThinCamera(Camera):
             raise UserError(f"{scene.source} [medium]: a medium with a thin lens; no PSF model combines "
                             "defocus and scattering (LSR18's Volume PSFs are a pinhole's): set [camera] "
                             "model = \"pinhole\" for fog, or remove [medium]")
+        if self.focal_surface is not None:
+            raise UserError(f"{scene.source} [camera] focal_surface: expressive focus has no physical reference to "
+                            "report against; render a labelled input with it: splatlab render IN.exr --camera "
+                            "FILE.toml (a [camera] table with the focal_surface)")
         if scene_moves(scene):
             if self.runtime_camera().tilted:
                 raise UserError(f"{scene.source} [camera]: a tilted sensor in a moving scene; the motion reference "

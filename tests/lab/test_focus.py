@@ -163,3 +163,40 @@ def test_render_bad_focus_point_exits_2(exr, capfd, value, needles):
     for needle in needles:
         assert needle in err[0], (needle, err[0])
     assert not (tmp / "o.exr").exists()
+
+
+def test_tilted_and_expressive_cameras_round_trip_through_the_header():
+    from lab.cameras.base import parse_camera
+    from lab.exr_io import validate_camera
+    from runtime_cl.camera import from_header
+    import json
+
+    place = {"position": [0, 0, 0], "look_at": [0, 0, 1], "focal_length_mm": 50.0, "f_number": 1.0,
+             "focus_distance_m": 2.0}
+    for extra in ({"sensor_tilt_deg": [4.0, -2.5]}, {"focal_surface": {"points": [[1, 2, 1.5], [5, 6, 3.0]]}}):
+        cam = parse_camera({"model": "thin", **place, **extra}, "c.toml [camera]")
+        header = json.loads(json.dumps(cam.camera_json()))
+        assert validate_camera(header, "h") == header
+        assert from_header(header, "h") == cam.runtime_camera() and cam.runtime_camera().has_focal_map
+
+
+def test_render_with_an_expressive_camera_file(tmp_path):
+    """``--camera`` with a focal_surface: two bright points at 3 m, one on a pixel the surface holds at
+    3 m (it stays in its pixel), one where it holds 1 m (it spreads: dof_extent 0.2, five times the blur of the f/0.5 lens)."""
+    rgb = np.zeros((12, 16, 3), np.float32)
+    rgb[7, 5] = rgb[3, 12] = 50.0
+    camera = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 0.5, "focus_distance_m": 3.0,
+              "sensor_width_mm": 36.0, "shutter": [0.0, 1.0]}
+    write_labelled(tmp_path / "in.exr", LabelledImage(rgb, np.ones((12, 16), np.float32),
+                                                      np.full((12, 16), 3.0, np.float32), camera))
+    (tmp_path / "cam.toml").write_text(
+        "[camera]\nmodel = \"thin\"\nposition = [0, 0, 0]\nlook_at = [0, 0, 1]\nfocal_length_mm = 50.0\n"
+        "f_number = 0.5\nfocus_distance_m = 3.0\nfocal_surface = { points = [[5, 7, 3.0], [12, 3, 1.0]], beta = 2, dof_extent = 0.2 }\n")
+    for method in ("polygon", "layered"):
+        assert main(["render", str(tmp_path / "in.exr"), "--method", method, "--camera", str(tmp_path / "cam.toml"),
+                     "--out", str(tmp_path / f"{method}.exr")]) == 0
+        from lab.exr_io import read_rgb
+
+        out = read_rgb(tmp_path / f"{method}.exr")[..., 0]
+        assert out[7, 5] == pytest.approx(50.0, rel=1e-4) and out[6:9, 4:7].sum() == pytest.approx(50.0, rel=1e-4)
+        assert out[3, 12] < 10.0 and (out[:7, 9:] > 0.3).sum() >= 12              # a disc of radius 3.8 px

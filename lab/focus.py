@@ -9,7 +9,7 @@ The input's field of view depends on the focus (a thin lens breathes: the image 
 so the depth a pixel sees does too: :func:`resolve_focus` iterates focus -> pinhole depths ->
 focus until the distance changes by < 1e-7 relative (a couple of rounds; the input rendered with
 the result then sees the same depth there). The depths are Mitsuba's pixel-centre rays, the Z of
-:func:`lab.reference.labelled.planar_depth`.
+:func:`lab.reference.labelled.planar_depth`, traced for the focus pixels alone.
 """
 from __future__ import annotations
 
@@ -17,11 +17,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from runtime_cl.camera.focal_surface import chief_directions, scheimpflug_tilt
+from runtime_cl.camera.focal_surface import scheimpflug_tilt
 
 from .errors import UserError
 
-__all__ = ["check_pixels", "depth_at", "fit_plane", "refocus_header", "refocus_option", "resolve_focus"]
+__all__ = ["check_pixels", "depth_at", "fit_plane", "pixel_depths", "refocus_header", "refocus_option", "resolve_focus"]
 
 ROUNDS = 12           # fixed-point rounds; focus breathing converges in 2-4
 TOLERANCE = 1e-7      # relative change of the focus distance that ends them
@@ -37,17 +37,23 @@ def check_pixels(pixels, width: int, height: int, key: str) -> None:
 
 
 def depth_at(depth: np.ndarray, x: int, y: int, key: str) -> float:
-    """The depth at pixel (x, y); UserError naming the pixel and a nearby pixel that sees a surface
-    when it sees none (sky: Z = inf or A = 0 there)."""
+    """The depth at pixel (x, y) of a depth map; UserError naming the pixel and the nearest pixel
+    that sees a surface when it sees none (sky: Z = inf or A = 0 there)."""
     z = float(depth[y, x])
     if np.isfinite(z) and z > 0:
         return z
     valid = np.argwhere(np.isfinite(depth) & (depth > 0))
-    hint = "nothing in the image has a surface"
+    near = None
     if len(valid):
         ny, nx = valid[np.argmin((valid[:, 0] - y) ** 2 + (valid[:, 1] - x) ** 2)]
-        hint = f"pick a pixel on a surface, e.g. the nearest one, [{nx}, {ny}]"
-    raise UserError(f"{key} [{x}, {y}] sees no surface (sky: Z = {z}), so it has no depth to focus on; {hint}")
+        near = (int(nx), int(ny))
+    raise no_surface(key, x, y, z, near)
+
+
+def no_surface(key: str, x: int, y: int, z: float, near) -> UserError:
+    hint = (f"pick a pixel on a surface, e.g. the nearest one, [{near[0]}, {near[1]}]" if near is not None else
+            "pick a pixel on a surface")
+    return UserError(f"{key} [{x}, {y}] sees no surface (sky: Z = {z}), so it has no depth to focus on; {hint}")
 
 
 def fit_plane(points: np.ndarray, key: str) -> tuple:
@@ -63,23 +69,61 @@ def fit_plane(points: np.ndarray, key: str) -> tuple:
     return n, float(n @ centre)
 
 
-def _seen_points(camera, depth: np.ndarray, pixels, key: str) -> np.ndarray:
-    """Camera-space points (x right, y up, z forward; metres) the ``pixels`` see in ``depth``."""
-    h, w = depth.shape
-    dx, dy = chief_directions(h, w, camera.runtime_camera().focal_px(w))
-    out = []
-    for x, y in pixels:
-        z = depth_at(depth, x, y, key)
-        out.append((z * dx[y, x], z * dy[y, x], z))
-    return np.asarray(out)
+NEAR_WINDOW_PX = 48   # how far around a focus point on the sky its error looks for a surface pixel
 
 
-def _focus_from(camera, depth: np.ndarray) -> dict:
-    """The camera fields a depth map gives: focus distance (and sensor tilt for focus_points)."""
+def pixel_depths(scene, pixels) -> np.ndarray:
+    """(n,) planar depth Z (metres; inf: no surface) at the centres of ``pixels`` [(x, y), ...]: one
+    pinhole ray each, traced as :func:`lab.reference.labelled.planar_depth` traces every pixel (a
+    few rays: the cost does not grow with the image)."""
+    import drjit as dr
+
+    from .reference.backend import mitsuba
+    from .reference.render import load
+
+    mi = mitsuba()
+    px = np.asarray(pixels, np.float64).reshape(-1, 2)
+    pos = mi.Point2f(mi.Float((px[:, 0] + 0.5) / scene.width), mi.Float((px[:, 1] + 0.5) / scene.height))
+    mi_scene = load(scene, "pinhole")
+    ray, _ = mi_scene.sensors()[0].sample_ray(mi.Float(0.0), mi.Float(0.5), pos, mi.Point2f(0.5, 0.5))
+    si = mi_scene.ray_intersect(ray)
+    dr.eval(si.p)
+    points = np.stack([np.asarray(si.p[i], np.float64) for i in range(3)], axis=-1)
+    cam = scene.camera
+    z = (points - cam.position_at(0.0)) @ cam.forward()
+    return np.where(np.asarray(si.is_valid(), bool), z, np.inf)
+
+
+def _depths(scene, pixels, key: str) -> np.ndarray:
+    """:func:`pixel_depths`; UserError naming a pixel on the sky and the nearest surface pixel."""
+    z = pixel_depths(scene, pixels)
+    for (x, y), d in zip(pixels, z):
+        if not (np.isfinite(d) and d > 0):
+            r = NEAR_WINDOW_PX
+            x0, y0 = max(0, x - r), max(0, y - r)
+            ys, xs = np.mgrid[y0:min(scene.height, y + r + 1), x0:min(scene.width, x + r + 1)]
+            around = pixel_depths(scene, np.stack([xs.ravel(), ys.ravel()], -1)).reshape(xs.shape)
+            ok = np.argwhere(np.isfinite(around))
+            near = None
+            if len(ok):
+                i = np.argmin((ok[:, 0] + y0 - y) ** 2 + (ok[:, 1] + x0 - x) ** 2)
+                near = (int(ok[i, 1] + x0), int(ok[i, 0] + y0))
+            raise no_surface(key, x, y, float(d), near)
+    return z
+
+
+def _focus_from(scene) -> dict:
+    """The camera fields the depths the focus pixels see give: focus distance (and sensor tilt
+    for focus_points)."""
+    camera = scene.camera
     if camera.focus_point is not None:
-        x, y = camera.focus_point
-        return {"focus_distance_m": depth_at(depth, x, y, "focus_point")}
-    points = _seen_points(camera, depth, camera.focus_points, "focus_points")
+        return {"focus_distance_m": float(_depths(scene, [camera.focus_point], "focus_point")[0])}
+    pixels = camera.focus_points
+    z = _depths(scene, pixels, "focus_points")
+    w, h = scene.width, scene.height
+    f_px = camera.runtime_camera().focal_px(w)
+    points = np.asarray([((x + 0.5 - w / 2) / f_px * d, (h / 2 - y - 0.5) / f_px * d, d)
+                         for (x, y), d in zip(pixels, z)])
     n, c = fit_plane(points, "focus_points")
     try:
         focus, tilt = scheimpflug_tilt(n, c, camera.focal_length_mm / 1000.0)
@@ -95,16 +139,13 @@ def resolve_focus(scene):
     cam = scene.camera
     if getattr(cam, "focus_point", None) is None and getattr(cam, "focus_points", None) is None:
         return scene
-    from .reference.labelled import planar_depth
-
     where = f"{scene.source} [camera]"
     pixels = [cam.focus_point] if cam.focus_point is not None else cam.focus_points
     try:
         check_pixels(pixels, scene.width, scene.height, "focus_point" if cam.focus_point is not None else "focus_points")
         current = cam.focus_distance_m or START_M
         for _ in range(ROUNDS):
-            trial = replace(scene, camera=replace(cam, focus_distance_m=current))
-            fields = _focus_from(trial.camera, planar_depth(trial))
+            fields = _focus_from(replace(scene, camera=replace(cam, focus_distance_m=current)))
             done = abs(fields["focus_distance_m"] - current) <= TOLERANCE * current
             current = fields["focus_distance_m"]
             if done:

@@ -72,7 +72,8 @@ def test_focus_points_tilt_the_sensor_onto_their_plane():
     n = np.linalg.svd(pts - centre)[2][2]                                # their total-least-squares plane
     ys, xs = np.mgrid[0:h, 0:w]
     plane = (n[0] * (xs + 0.5 - w / 2) / f_px + n[1] * (h / 2 - ys - 0.5) / f_px + n[2]) / (n @ centre)
-    np.testing.assert_allclose(lens.inverse_focus_map(h, w), plane, rtol=1e-6)
+    # 1e-5: the plane here is fitted to the input's float32 Z (7 digits); lab.focus traces float64
+    np.testing.assert_allclose(lens.inverse_focus_map(h, w), plane, rtol=1e-5)
     seen = [z[y, x] * plane[y, x] for x, y in scene.camera.focus_points]
     # 0.05: four points on two house walls are not coplanar; the fit passes near each (3.6 % here)
     np.testing.assert_allclose(seen, 1.0, atol=0.05)

@@ -201,3 +201,15 @@ def test_render_with_an_expressive_camera_file(tmp_path):
         out = read_rgb(tmp_path / f"{method}.exr")[..., 0]
         assert out[7, 5] == pytest.approx(50.0, rel=1e-4) and out[6:9, 4:7].sum() == pytest.approx(50.0, rel=1e-4)
         assert out[3, 12] < 10.0 and (out[:7, 9:] > 0.3).sum() >= 12              # a disc of radius 3.8 px
+
+
+def test_render_refuses_a_header_tilt_along_the_view_direction(tmp_path, capfd):
+    camera = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 0.5, "focus_distance_m": 3.0,
+              "sensor_width_mm": 36.0, "shutter": [0.0, 1.0], "sensor_tilt_deg": [0.0, 75.0]}
+    write_labelled(tmp_path / "in.exr", LabelledImage(np.zeros((8, 8, 3), np.float32), np.ones((8, 8), np.float32),
+                                                      np.full((8, 8), 2.0, np.float32), camera))
+    code = main(["render", str(tmp_path / "in.exr"), "--method", "polygon", "--out", str(tmp_path / "o.exr")])
+    err = capfd.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, (code, err)
+    assert "sensor_tilt_deg = [0.0, 75.0]" in err[0] and "along the view direction" in err[0], err[0]
+    assert not (tmp_path / "o.exr").exists()

@@ -204,10 +204,19 @@ def test_render_with_an_expressive_camera_file(tmp_path):
 
 
 def test_render_refuses_a_header_tilt_along_the_view_direction(tmp_path, capfd):
+    import json
+
+    import OpenEXR
+
     camera = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 0.5, "focus_distance_m": 3.0,
-              "sensor_width_mm": 36.0, "shutter": [0.0, 1.0], "sensor_tilt_deg": [0.0, 75.0]}
-    write_labelled(tmp_path / "in.exr", LabelledImage(np.zeros((8, 8, 3), np.float32), np.ones((8, 8), np.float32),
+              "sensor_width_mm": 36.0, "shutter": [0.0, 1.0]}
+    write_labelled(tmp_path / "ok.exr", LabelledImage(np.zeros((8, 8, 3), np.float32), np.ones((8, 8), np.float32),
                                                       np.full((8, 8), 2.0, np.float32), camera))
+    with OpenEXR.File(str(tmp_path / "ok.exr"), separate_channels=True) as exr:   # a header edited by hand
+        header = dict(exr.header(), **{"splatlab.camera": json.dumps(dict(camera, sensor_tilt_deg=[0.0, 75.0]))})
+        channels = {k: c.pixels for k, c in exr.channels().items()}
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(tmp_path / "in.exr"))
     code = main(["render", str(tmp_path / "in.exr"), "--method", "polygon", "--out", str(tmp_path / "o.exr")])
     err = capfd.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1, (code, err)

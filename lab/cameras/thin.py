@@ -210,8 +210,9 @@ class ThinCamera(Camera):
             "dof": self._dof(),
             "aperture": "circle",
             "psf_models": ("simple_lens",),
-            "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens, "
-                                                    f"{r.reference_spp} spp, max depth {r.max_depth}"),),
+            "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens"
+                                                    f"{self._tilt_note()}, {r.reference_spp} spp, max depth "
+                                                    f"{r.max_depth}"),),
             "runtime_passes": ("spreadlets", "splat", "filter"),
             "skipped": (),
         }
@@ -220,6 +221,9 @@ class ThinCamera(Camera):
             rule["runtime_passes"] += ("layered",)
             rule["pass_runs"] = {"layered": ("layered", {"rays": rays, "layered_input": True})}
         return rule
+
+    def _tilt_note(self) -> str:
+        return " and its tilted sensor (lab.reference.tilted_lens)" if self.runtime_camera().tilted else ""
 
     def _dof(self) -> str:
         lens = self.runtime_camera()

@@ -172,7 +172,7 @@ def refocus_header(camera: dict, depth: np.ndarray, x: int, y: int, source: str)
         from .cameras.thick import ThickCamera
 
         thick = ThickCamera(model="thick", position=(0.0, 0.0, 0.0), look_at=(0.0, 0.0, 1.0),
-                            surfaces=camera["surfaces"], focus_distance_m=z,
+                            surfaces=camera["surfaces"], focus_distance_m=z, focus_point=(x, y),
                             sensor_width_mm=camera["sensor_width_mm"])
         return {**thick.runtime_camera().to_json(), "shutter": camera.get("shutter", [0.0, 1.0])}
     raise UserError(f"--focus-point {x},{y}: {source} lens = {lens!r} has no focus; use a thin or thick lens header")

@@ -222,3 +222,23 @@ def test_render_refuses_a_header_tilt_along_the_view_direction(tmp_path, capfd):
     assert code == 2 and len(err) == 1, (code, err)
     assert "sensor_tilt_deg = [0.0, 75.0]" in err[0] and "along the view direction" in err[0], err[0]
     assert not (tmp_path / "o.exr").exists()
+
+
+def test_refocus_header_moves_the_thick_lens_sensor():
+    """--focus-point on a thick-lens EXR: the lab re-derives the sensor plane for the new distance,
+    and the header still passes the lab's check of its paraxial figures."""
+    from lab.cameras.base import parse_camera
+    from lab.exr_io import validate_camera
+    from lab.focus import refocus_header
+
+    cam = parse_camera({"model": "thick", "lens": "singlet", "focus_distance_m": 2.0, "position": [0, 0, 0],
+                        "look_at": [0, 0, 1]}, "c.toml [camera]")
+    header = cam.camera_json()
+    depth = np.full((6, 8), 5.0)
+    depth[2, 3] = 0.7
+    near = refocus_header(header, depth, 3, 2, "in.exr camera")
+    assert near["focus_distance_m"] == 0.7 and near["focus_points"] == [[3, 2]]
+    assert near["sensor_z_mm"] > header["sensor_z_mm"]                  # nearer focus: the sensor moves back
+    assert validate_camera(near, "h") == near
+    with pytest.raises(UserError, match=r"--focus-point \[8, 2\] is outside the 8 x 6 image"):
+        refocus_header(header, depth, 8, 2, "in.exr camera")

@@ -3,7 +3,10 @@ fronts tilt the sensor (Scheimpflug), Mitsuba renders through the tilted sensor,
 method renders with the per-pixel focus; the same methods with the untilted lens of the same axial
 focus score clearly worse against the tilted reference.
 
-Thresholds, measured (2026-12-02): see the asserts; they leave room for the jitter of a changed
+Thresholds, measured (2026-12-02; 256-spp reference, 16-spp input, 64 rays): SSIM spreadlets 0.799,
+splat 0.799, filter 0.823, layered 0.854 with the tilt; 0.663 / 0.663 / 0.670 / 0.683 untilted (the
+spreadlet passes also lose light at the image border, which the layered pass renormalises: inside
+a 20-px border 0.848 / 0.848 / 0.873 / 0.883). The bounds leave room for the jitter of a changed
 Mitsuba or PoCL build, not for losing the tilt.
 """
 import numpy as np
@@ -50,7 +53,7 @@ def test_every_method_follows_the_tilted_reference(report):
     flat = type(camera)(camera.focal_length_mm, camera.f_number, camera.focus_distance_m, camera.sensor_width_mm)
     name, options = plan.pass_run("layered")
     untilted, _ = run_pass(name, frame_of(image, layered_input=True), flat, **options)
-    assert ssim(untilted, reference) < methods["layered"]["ssim"] - 0.05
+    assert ssim(untilted, reference) < methods["layered"]["ssim"] - 0.1
 
 
-MIN_SSIM = {"spreadlets": 0.0, "splat": 0.0, "filter": 0.0, "layered": 0.0}
+MIN_SSIM = {"spreadlets": 0.76, "splat": 0.76, "filter": 0.78, "layered": 0.82}

@@ -9,7 +9,6 @@ spreadlet passes also lose light at the image border, which the layered pass ren
 a 20-px border 0.848 / 0.848 / 0.873 / 0.883). The bounds leave room for the jitter of a changed
 Mitsuba or PoCL build, not for losing the tilt.
 """
-import numpy as np
 import pytest
 
 from lab.paths import SCENES

@@ -158,16 +158,15 @@ def resolve_focus(scene):
 def refocus_header(camera: dict, depth: np.ndarray, x: int, y: int, source: str) -> dict:
     """The ``splatlab.camera`` header ``camera`` focused at pixel (x, y) of ``depth`` (the input's
     Z): ``splatlab render --focus-point X,Y``. The thin lens takes the depth as its focus
-    distance; the thick lens moves its sensor there (its paraxial figures re-derived by the lab)."""
+    distance (untilted: the point overrides the header's whole focus); the thick lens moves its
+    sensor there (its paraxial figures re-derived by the lab)."""
     h, w = depth.shape
     check_pixels([(x, y)], w, h, "--focus-point")
     z = depth_at(depth, x, y, "--focus-point")
     lens = camera.get("lens")
-    if lens == "thin":
-        if "sensor_tilt_deg" in camera or "focal_surface" in camera:
-            raise UserError(f"--focus-point {x},{y}: {source} has a tilted or expressive focus; a focus point sets "
-                            "one distance for the whole image: remove it from the header (--camera) first")
-        return dict(camera, focus_distance_m=z, focus_points=[[x, y]])
+    if lens == "thin":   # the point replaces the header's whole focus: a tilt or a focal surface goes
+        kept = {k: v for k, v in camera.items() if k not in ("sensor_tilt_deg", "focal_surface")}
+        return dict(kept, focus_distance_m=z, focus_points=[[x, y]])
     if lens == "thick":
         from .cameras.thick import ThickCamera
 

@@ -131,18 +131,21 @@ def exr(tmp_path):
 
 def test_render_focus_point_refocuses_the_header(exr):
     """--focus-point 5,7 renders as the same EXR whose header focuses at Z[7, 5] does (and not as the
-    header's own focus)."""
+    header's own focus; a tilted header loses its tilt)."""
     from lab.exr_io import read_labelled, read_rgb
 
     tmp, z = exr
     image = read_labelled(tmp / "in.exr")
     write_labelled(tmp / "at.exr", LabelledImage(image.rgb, image.alpha, image.depth,
                                                  dict(image.camera, focus_distance_m=float(z[7, 5]))))
+    write_labelled(tmp / "tilted.exr", LabelledImage(image.rgb, image.alpha, image.depth,
+                                                     dict(image.camera, sensor_tilt_deg=[5.0, -3.0])))
     for args, out in ((["in.exr", "--focus-point", "5,7"], "point.exr"), (["at.exr"], "at_out.exr"),
-                      (["in.exr"], "own.exr")):
+                      (["in.exr"], "own.exr"), (["tilted.exr", "--focus-point", "5,7"], "untilted.exr")):
         assert main(["render", str(tmp / args[0]), *args[1:], "--method", "polygon", "--out", str(tmp / out)]) == 0
-    point, at, own = (read_rgb(tmp / n) for n in ("point.exr", "at_out.exr", "own.exr"))
+    point, at, own, untilted = (read_rgb(tmp / n) for n in ("point.exr", "at_out.exr", "own.exr", "untilted.exr"))
     np.testing.assert_array_equal(point, at)
+    np.testing.assert_array_equal(untilted, at)             # the point overrides the header's tilt too
     assert np.abs(point - own).max() > 0.05
 
 

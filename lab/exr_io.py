@@ -322,7 +322,8 @@ def _header_camera(path, header: dict) -> dict:
     if raw is None:
         raise UserError(f"{path}: no '{CAMERA_ATTR}' header, so the lens is unknown; pass the camera "
                         "with --camera FILE.toml (a file with a [camera] table)")
-    data = loads(raw, f"{path} header '{CAMERA_ATTR}'", "pass the camera with --camera FILE.toml")
+    data = loads(raw, f"{path} header '{CAMERA_ATTR}'", "pass the camera with --camera FILE.toml",
+                 infinite_keys=("surfaces",))   # a thick lens's flat faces
     return validate_camera(data, f"{path} header '{CAMERA_ATTR}'")
 
 

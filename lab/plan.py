@@ -122,7 +122,8 @@ def make_plan(scene) -> Plan:
                                        "centres, camera in the EXR header"
                    + (", at mid-shutter with motion.X, motion.Y (open -> close)" if moves else "")),)
     if r.peel_layers is not None:
-        inputs += (Step("peeled_layers", f"layer0..{r.peel_layers - 1}.R,G,B,A,Z ({r.input_spp} spp): LES10's "
+        inputs += (Step("peeled_layers", f"layer0..{r.peel_layers - 1}.R,G,B,A,Z (layer 0: the input; behind it "
+                                         f"{r.peel_spp or r.input_spp} spp): LES10's "
                                          "depth peeling from the lens centre past the umbra offset"),)
     if r.peel_layers is not None and "layered" not in rule["runtime_passes"]:
         skipped.append(Step("layered (lens rays through the peeled layers)", "this camera's plan traces no "

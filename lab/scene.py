@@ -68,7 +68,10 @@ class RenderSettings:
 
     ``peel_layers`` (optional): peel up to this many layers from the lens centre with LES10's
     umbra offset into the input (:mod:`lab.reference.peel`) and trace lens rays through them
-    (the ``layered`` pass, ``lens_rays`` per pixel, default 100).
+    (the ``layered`` pass, ``lens_rays`` per pixel, default 100). ``peel_spp`` (optional, default
+    ``input_spp``): samples per pixel of the peeled layers behind the first; the first layer is the
+    pinhole input itself (``input_spp``), where in-focus grain shows, while what lies behind it is
+    mostly seen through blur, which averages its grain away.
     """
 
     reference_spp: int = 256
@@ -77,17 +80,22 @@ class RenderSettings:
     max_depth: int = 8
     peel_layers: int | None = None
     lens_rays: int | None = None
+    peel_spp: int | None = None
 
     def __post_init__(self):
         for key in ("reference_spp", "input_spp", "max_depth"):
             if getattr(self, key) < 1:
                 raise UserError(f"{key} = {getattr(self, key)} must be >= 1")
-        for key, bound in (("peel_layers", 64), ("lens_rays", 4096)):   # LES10 needed <= 10 layers
+        for key, bound in (("peel_layers", 64), ("lens_rays", 4096),   # LES10 needed <= 10 layers
+                           ("peel_spp", RENDER_BOUNDS["input_spp"][0])):
             if getattr(self, key) is not None and not 1 <= getattr(self, key) <= bound:
                 raise UserError(f"{key} = {getattr(self, key)} must be between 1 and {bound} (or remove it)")
         if self.lens_rays is not None and self.peel_layers is None:
             raise UserError(f"lens_rays = {self.lens_rays}: lens rays trace peeled layers; add peel_layers "
                             "(e.g. 8) or remove lens_rays")
+        if self.peel_spp is not None and self.peel_layers is None:
+            raise UserError(f"peel_spp = {self.peel_spp}: the samples of peeled layers; add peel_layers (e.g. 8) "
+                            "or remove peel_spp")
         for key, (bound, why) in RENDER_BOUNDS.items():
             if getattr(self, key) > bound:
                 raise UserError(f"{key} = {getattr(self, key)}: at most {bound} ({why})")

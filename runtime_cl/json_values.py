@@ -4,7 +4,8 @@ Headers (the EXR's ``splatlab.camera``, a database's header, a baseline report) 
 anyone can edit, so :func:`loads` bounds what Python's ``json`` would otherwise accept: the size,
 the nesting depth (deep nesting recurses in the decoder), the digits of an integer (a 400-digit
 integer overflows every float conversion later) and the non-JSON constants ``NaN`` and
-``Infinity``. :func:`is_number` is the one test for a number: ``true`` is not 1.
+``Infinity`` (``Infinity`` only where a caller names the key that may hold it: a flat lens
+surface's radius, under ``surfaces``). :func:`is_number` is the one test for a number: ``true`` is not 1.
 """
 from __future__ import annotations
 
@@ -66,7 +67,27 @@ def _constant(name: str):
     raise ValueError(f"{name} is not a JSON number; write a finite number")
 
 
-def loads(raw, source: str, fix: str, max_bytes: int = MAX_BYTES, allow_nan: bool = False):
+def _infinity(name: str):
+    if name in ("Infinity", "-Infinity"):
+        return float(name)
+    return _constant(name)
+
+
+def _finite_outside(value, keys, path: str = "") -> str | None:
+    """The path of the first infinite number in ``value`` not under one of ``keys``, else None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return path or "(top)"
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for k, v in items:
+        if not (isinstance(k, str) and k in keys):
+            found = _finite_outside(v, keys, f"{path}[{k!r}]" if path else repr(k))
+            if found:
+                return found
+    return None
+
+
+def loads(raw, source: str, fix: str, max_bytes: int = MAX_BYTES, allow_nan: bool = False,
+          infinite_keys: tuple = ()):
     """Parse JSON from a user's file with the module's limits.
 
     Parameters
@@ -81,6 +102,8 @@ def loads(raw, source: str, fix: str, max_bytes: int = MAX_BYTES, allow_nan: boo
         The most characters accepted.
     allow_nan : bool, default False
         Accept ``NaN`` and ``Infinity`` (a report's missing figures are NaN).
+    infinite_keys : tuple of str
+        Keys under which ``Infinity`` is accepted (never NaN), e.g. ``("surfaces",)``.
 
     Raises
     ------
@@ -105,7 +128,13 @@ def loads(raw, source: str, fix: str, max_bytes: int = MAX_BYTES, allow_nan: boo
     try:
         if allow_nan:
             return json.loads(raw, parse_int=_int)
-        return json.loads(raw, parse_int=_int, parse_float=_float, parse_constant=_constant)
+        data = json.loads(raw, parse_int=_int, parse_float=_float,
+                          parse_constant=_infinity if infinite_keys else _constant)
     except (ValueError, RecursionError) as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise InputError(f"{source}: not JSON ({reason}); {fix}") from None
+    where = _finite_outside(data, infinite_keys) if infinite_keys else None
+    if where:
+        raise InputError(f"{source}: not JSON (Infinity at {where}, where only a finite number fits; only a flat "
+                         f"surface's radius under {list(infinite_keys)} may be Infinity); {fix}")
+    return data

@@ -3,8 +3,9 @@
 On a scene with ``[render] peel_layers`` (default ``scenes/foreground.toml``): for N = 8, 32,
 100, 256 lens rays per pixel, SSIM and PSNR against the Mitsuba thin-lens reference and the time
 per frame; the same through the flat pinhole image (what the peeled layers add); the time with
-the nearest 1, 2, ... layers (the cost of later layers); and Mitsuba's own thin-lens render at
-low sample counts, timed in the same run, for the time at equal SSIM. Each time is the median
+the nearest 1, 2, ... layers (the cost of later layers); and Mitsuba's own render through the
+scene's lens at low sample counts, timed in the same run, for the time at equal SSIM
+(:mod:`lab.bench.layered_plot`, which also draws LES10 Fig. 7 beside the JSON). Each time is the median
 of ``repeats`` timed calls (after a warm-up), with the spread over them.
 """
 from __future__ import annotations
@@ -14,6 +15,7 @@ import time
 import numpy as np
 
 from lab.bench import output
+from lab.bench.layered_plot import equal_quality_speedup, plot_layered
 
 __all__ = ["bench_layered", "RAYS"]
 
@@ -91,13 +93,18 @@ def bench_layered(scene_path, repeats: int, rays=RAYS, mitsuba_spp=MITSUBA_SPP) 
                         "ssim_smoothed": _smooth_ssim(img, reference),
                         "time_ms": (time.perf_counter() - start) * 1e3}
     t4 = layers[min(4, n_layers)]["time_ms"]
+    equal = {k: equal_quality_speedup(m["ssim"], m["time_ms"], mitsuba) for k, m in methods.items()
+             if k.startswith("peeled_")}
     data = {"scene": str(scene_path), "resolution": list(scene.info.resolution), "repeats": repeats,
             "reference": {"spp": scene.render.reference_spp, "seconds": ref_info.get("reference_s")},
             "input_layers": n_layers, "occupancy": methods["peeled_100"]["counts"]["occupancy"],
             "pinhole_input": pinhole, "methods": methods, "layers": layers, "mitsuba_low_spp": mitsuba,
+            "mitsuba_at_equal_ssim": equal,
             "cost_layers_5_8_over_1_4": ((layers[min(8, n_layers)]["time_ms"] - t4) / t4
                                          if n_layers > 4 else None),
             "targets": {"peeled_100.ssim": ">= 0.98 (<= 7 layers, 800x600)",
                         "cost_layers_5_8_over_1_4": "<= 0.4 (LES10: 0.2-0.3)",
                         "time vs Mitsuba at equal SSIM": ">= 100x less"}}
-    return output.write_bench("layered", data)
+    path = output.write_bench("layered", data)
+    plot_layered(data, path.with_suffix(".png"))
+    return path

@@ -38,6 +38,18 @@ _CAMERAS = Registry("camera model")
 register_camera = _CAMERAS.register
 camera_names = _CAMERAS.names
 get_camera = _CAMERAS.get
+LENS_RAYS = 100    # lens rays per pixel of the layered pass when [render] lens_rays is not given
+
+
+def with_layered_pass(rule: dict, scene) -> dict:
+    """``rule`` plus, with ``[render] peel_layers``, LES10's lens rays through the umbra-peeled
+    layers of the input: the ``layered`` pass with ``[render] lens_rays`` rays."""
+    r = scene.render
+    if r.peel_layers is not None:
+        rule["runtime_passes"] += ("layered",)
+        rule["pass_runs"] = {**rule.get("pass_runs", {}),
+                             "layered": ("layered", {"rays": r.lens_rays or LENS_RAYS, "layered_input": True})}
+    return rule
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from ..motion import scene_moves
 from ..optics.glass import LINE_D_NM, get_glass
 from ..optics.lenses import LENSES, lens_names
 from ..plan import Step
-from .base import Camera, register_camera
+from .base import Camera, register_camera, with_layered_pass
 
 WAVELENGTHS_NM = (650.0, 510.0, 475.0)   # R, G, B (LES10)
 FOCUS_WAVELENGTH_NM = LINE_D_NM          # focusing and the pinhole scale
@@ -174,7 +174,7 @@ class ThickCamera(Camera):
                          sensor_width_mm=self.sensor_width_mm,
                          focal_length_mm=cam.lens.effective_focal_length_mm(FOCUS_WAVELENGTH_NM),
                          chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm,
-                         sensor_z_mm=cam.sensor_z_mm, wavelengths_nm=WAVELENGTHS_NM,
+                         sensor_z_mm=cam.sensor_z_mm, pupil_z_mm=cam.pupil_z_mm, wavelengths_nm=WAVELENGTHS_NM,
                          indices=tuple(cam.lens.indices(w) for w in WAVELENGTHS_NM),
                          focus_points=(tuple(self.focus_point),) if self.focus_point is not None else ())
 
@@ -194,7 +194,8 @@ class ThickCamera(Camera):
         except UserError as exc:
             raise UserError(f"{source}: {exc}") from None
         derived = camera.runtime_camera().to_json()
-        for key in ("focal_length_mm", "chief_scale_mm", "pupil_radius_mm", "sensor_z_mm", "wavelengths_nm", "indices"):
+        for key in ("focal_length_mm", "chief_scale_mm", "pupil_radius_mm", "sensor_z_mm", "pupil_z_mm", "wavelengths_nm",
+                    "indices"):
             if not np.allclose(data[key], derived[key], rtol=1e-6, atol=0.0):
                 raise UserError(f"{source} {key} = {data[key]!r}, but the header's surfaces give {derived[key]!r}; "
                                 "write the header from the scene's [camera] (splatlab reference) or fix the surfaces")
@@ -211,7 +212,7 @@ class ThickCamera(Camera):
         self.check_sensor(scene.width, scene.height, f"{scene.source} [camera]")
         r = scene.render
         nm = "/".join(f"{w:g}" for w in WAVELENGTHS_NM)
-        return {
+        rule = {
             "dof": self._dof(),
             "aperture": f"round stop (semi-aperture {self.stop_radius_mm():g} mm), vignetted by the lens's "
                         "openings (cat-eye off axis)",
@@ -225,6 +226,7 @@ class ThickCamera(Camera):
             "skipped": (Step("polygon passes", "MHU21's kernels are flat polygons; a thick lens's bokeh (cat-eye, "
                                                "aberrations, colour) runs through its physical_lens database"),),
         }
+        return with_layered_pass(rule, scene)   # LES10: the lens's own rays through peeled layers
 
     def _dof(self) -> str:
         lens = self.runtime_camera()

@@ -33,11 +33,10 @@ from ..errors import UserError
 from ..motion import scene_moves
 from ..optics.iris import Iris
 from ..plan import Step
-from .base import Camera, motion_plan, register_camera
+from .base import Camera, motion_plan, register_camera, with_layered_pass
 from .shaped_aperture import SHAPES, ShapedAperture
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
-LENS_RAYS = 100    # lens rays per pixel of the layered pass when [render] lens_rays is not given
 
 
 @register_camera("thin")
@@ -216,11 +215,7 @@ class ThinCamera(Camera):
             "runtime_passes": ("spreadlets", "splat", "filter"),
             "skipped": (),
         }
-        if r.peel_layers is not None:   # LES10: lens rays through the umbra-peeled layers of the input
-            rays = r.lens_rays or LENS_RAYS
-            rule["runtime_passes"] += ("layered",)
-            rule["pass_runs"] = {"layered": ("layered", {"rays": rays, "layered_input": True})}
-        return rule
+        return with_layered_pass(rule, scene)
 
     def _tilt_note(self) -> str:
         return " and its tilted sensor (lab.reference.tilted_lens)" if self.runtime_camera().tilted else ""

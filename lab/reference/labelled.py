@@ -105,7 +105,10 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
     z = planar_depth(scene, hits=(points, valid), t=t)
     alpha = np.isfinite(z).astype(np.float32)
     if scene.render.peel_layers is not None:
-        extra, _ = peel_layers(scene, spp, pass_spp=pass_spp, progress=progress)
+        peel_spp = scene.render.peel_spp or spp
+        extra, _ = peel_layers(scene, peel_spp, pass_spp=pass_spp, progress=progress)
+        for c, name in enumerate("RGB"):   # layer 0 is what the pinhole sees (A = 1): the input itself
+            extra[f"layer0.{name}"] = rgb[..., c].astype(np.float32)
     else:
         extra = render_layers(scene, spp, pass_spp, progress)
     if moves:

@@ -99,12 +99,12 @@ def _peel_rays(mi, dr, full, integrator, sampler, ray, eye, axis, beyond, scale,
 def peel_layers(scene: Scene, spp: int | None = None, max_layers: int | None = None,
                 extension_px: float = EXTENSION_PX, pass_spp: int | None = None,
                 progress: bool = True) -> tuple[dict, dict]:
-    """The umbra-peeled ``layerN.R/G/B/A/Z`` channels of a thin-lens scene, and their statistics.
+    """The umbra-peeled ``layerN.R/G/B/A/Z`` channels of a thin- or thick-lens scene, and their statistics.
 
     Parameters
     ----------
     scene : Scene
-        Its camera needs a thin-lens equivalent (the lens fixes the umbra).
+        Its camera needs a lens with a CoC scale (the lens fixes the umbra).
     spp : int, optional
         Primary rays per pixel; default ``scene.render.input_spp``.
     max_layers : int, optional
@@ -125,10 +125,10 @@ def peel_layers(scene: Scene, spp: int | None = None, max_layers: int | None = N
         ``max_layers``, ``extension_px``, ``truncated`` (pixels whose rays still had surfaces
         to peel after the last layer).
     """
-    thin = getattr(scene.camera, "thin_lens", None)
-    if thin is None:
+    lens = scene.camera.runtime_camera()
+    if not hasattr(lens, "coc_scale_px"):
         raise UserError(f"{scene.source} [camera]: peeling needs a lens (the umbra follows from its "
-                        "aperture); use model = \"thin\"")
+                        "aperture); use model = \"thin\" or \"thick\"")
     max_layers = max_layers or scene.render.peel_layers or 8
     mi = mitsuba()
     import drjit as dr
@@ -136,7 +136,7 @@ def peel_layers(scene: Scene, spp: int | None = None, max_layers: int | None = N
     full = mi.load_dict(scene_dict(scene, "pinhole"))
     integrator, sensor = full.integrator(), full.sensors()[0]
     w, h = scene.width, scene.height
-    scale = float(thin().coc_scale_px(w))
+    scale = float(lens.coc_scale_px(w))   # a thick lens: its paraxial CoC (entrance pupil, chief-ray scale)
     eye = mi.Point3f(*(float(v) for v in scene.camera.position))
     axis = mi.Vector3f(*(float(v) for v in scene.camera.forward()))
     box = full.bbox()

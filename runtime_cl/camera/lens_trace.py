@@ -153,7 +153,7 @@ class LensTraceKernel:
         self.lens = lens
         self.device = device or get_device()
         program, self.build = self.device.program("camera/lens_trace.cl", lens.build_options())
-        self.kernel = cl.Kernel(program, "trace_rays")
+        self.kernel = cl.Kernel(program, "trace_lens_rays")
         self.kernel.set_scalar_arg_dtypes([None, None, None, None, None, None, np.int32, np.int32])
 
     def trace(self, o, d, channel, to_sensor: bool = True) -> tuple:

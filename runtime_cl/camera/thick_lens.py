@@ -12,6 +12,8 @@ also writes the paraxial figures it derives from the surfaces (at the d line):
   entrance pupil; the paraxial chief ray of field tangent t lands at ``chief_scale_mm * t``);
 - ``pupil_radius_mm``: the entrance pupil's radius;
 - ``sensor_z_mm``: the sensor plane behind the first vertex (where focusing put it);
+- ``pupil_z_mm``: the entrance pupil's centre on the axis (lens coordinates, any sign): where the
+  labelled pixels' pinhole sits, so lens rays traced in the runtime map into its image;
 - ``wavelengths_nm`` and ``indices``: each channel's wavelength and the refractive index behind
   every surface there, for exact ray tracing (:mod:`runtime_cl.camera.lens_trace`).
 
@@ -75,6 +77,8 @@ class ThickLens:
         Sensor width; the image width spans it.
     focal_length_mm, chief_scale_mm, pupil_radius_mm, sensor_z_mm : float
         Paraxial figures of the surfaces and the sensor plane (the module docstring); all > 0.
+    pupil_z_mm : float
+        The entrance pupil's centre (mm, lens coordinates; finite, any sign).
     wavelengths_nm : tuple of float
         Each channel's wavelength (R, G, B).
     indices : tuple of tuple of float
@@ -90,6 +94,7 @@ class ThickLens:
     chief_scale_mm: float
     pupil_radius_mm: float
     sensor_z_mm: float
+    pupil_z_mm: float
     wavelengths_nm: tuple
     indices: tuple
     focus_points: tuple = ()   # the pixel the focus was taken from, [[x, y]] (what the header records)
@@ -100,6 +105,8 @@ class ThickLens:
             value = getattr(self, name)
             if not (_number(value) and math.isfinite(value) and value > 0):
                 raise InputError(f"camera {name} = {value!r}: must be a finite number > 0")
+        if not (_number(self.pupil_z_mm) and math.isfinite(self.pupil_z_mm)):
+            raise InputError(f"camera pupil_z_mm = {self.pupil_z_mm!r}: must be a finite number (mm)")
         waves, idx = self.wavelengths_nm, self.indices
         if not (isinstance(waves, (list, tuple)) and waves and all(_number(w) and w > 0 for w in waves)):
             raise InputError(f"camera wavelengths_nm = {waves!r}: give one wavelength (nm, > 0) per channel")
@@ -130,12 +137,15 @@ class ThickLens:
     def coc_radius_px(self, z_m, width_px: int):
         """Signed paraxial circle-of-confusion radius in pixels at depths ``z_m`` (metres from the
         entrance pupil; ``inf`` allowed), positive behind the focus distance."""
-        scale = self.pupil_radius_mm * self.chief_scale_mm / 1000.0 * width_px / self.sensor_width_mm
-        return scale * (1.0 / self.focus_distance_m - 1.0 / depth_m(z_m))
+        return self.coc_scale_px(width_px) * (1.0 / self.focus_distance_m - 1.0 / depth_m(z_m))
+
+    def coc_scale_px(self, width_px: int) -> float:
+        """The paraxial CoC radius in pixels per dioptre of defocus (a k W / sensor width)."""
+        return self.pupil_radius_mm * self.chief_scale_mm / 1000.0 * width_px / self.sensor_width_mm
 
     def to_json(self) -> dict:
         return {"lens": self.lens, "surfaces": [list(row) for row in self.surfaces],
-                **{name: getattr(self, name) for name in NUMBERS}, "focus": self.focus,
+                **{name: getattr(self, name) for name in NUMBERS}, "pupil_z_mm": self.pupil_z_mm, "focus": self.focus,
                 "wavelengths_nm": list(self.wavelengths_nm), "indices": [list(row) for row in self.indices],
                 **({"focus_points": [list(p) for p in self.focus_points]} if self.focus_points else {})}
 
@@ -144,7 +154,8 @@ class ThickLens:
         """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
         if data.get("lens") != cls.lens:
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
-        known = {"lens", "surfaces", "focus", "shutter", "wavelengths_nm", "indices", "focus_points", *NUMBERS}
+        known = {"lens", "surfaces", "focus", "shutter", "wavelengths_nm", "indices", "pupil_z_mm", "focus_points",
+                 *NUMBERS}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")

@@ -17,7 +17,7 @@ import numpy as np
 from runtime_cl.device.opencl import event_ms, get_device
 from runtime_cl.errors import InputError
 from runtime_cl.layered.lens_samples import disc_samples
-from runtime_cl.layered.nbuffer import levels_for, minmax_nbuffer
+from runtime_cl.layered.nbuffer import BIG, levels_for
 
 __all__ = ["LayerStack", "LayerTracer", "colour_mipmaps", "layer_stack"]
 
@@ -187,6 +187,8 @@ class LayerTracer:
         if self.cone:
             opts += ["-DCONE", f"-DCONE_STEPS={CONE_STEPS}", f"-DMIPS={self.mips}"]
         prg, self.build = self.device.program(("layered/trace.cl",), opts)
+        nprg, _ = self.device.program("layered/nbuffer.cl", opts[:3] + opts[5:9])   # W H NL DS W4 H4 LEVELS
+        self._nbuffer = {k: cl.Kernel(nprg, k) for k in ("nbuffer_base", "nbuffer_level", "nbuffer_range")}
         self._render = cl.Kernel(prg, "render")
         self._trace = cl.Kernel(prg, "trace_rays")
         self.samples = disc_samples(2 * self.rays)
@@ -205,19 +207,24 @@ class LayerTracer:
                     "stats": cl.Buffer(ctx, mf.WRITE_ONLY, 8 * n)}
 
     def _upload(self, stack: LayerStack) -> tuple:
-        """Min/max N-buffer (host) and the uploads; (events, wmax)."""
+        """The uploads and the min/max N-buffer, built on the device; (transfer events, wmax).
+
+        The N-buffer kernels' events are kept in ``self.nbuffer_events`` (kernel time)."""
         if stack.inv_depth.shape != (self.n_layers, self.h, self.w):
             raise InputError(f"layers: {stack.inv_depth.shape} (layers, H, W), this tracer was built for "
                              f"{(self.n_layers, self.h, self.w)}; build a tracer for the input's size")
-        nbuf = minmax_nbuffer(stack.inv_depth, self.ds)
-        rng = np.ascontiguousarray(nbuf[:, -1, 0, 0, :])   # the top square covers the layer
-        wmax = float(rng[:, 1].max())
-        q, cl = self.device.queue, self.cl
-        events = [cl.enqueue_copy(q, self.buf["height"], stack.inv_depth, is_blocking=False),
-                  cl.enqueue_copy(q, self.buf["colour"], stack.colour, is_blocking=False),
-                  cl.enqueue_copy(q, self.buf["nbuf"], np.ascontiguousarray(nbuf), is_blocking=False),
-                  cl.enqueue_copy(q, self.buf["range"], rng, is_blocking=False)]
-        return events, wmax, nbuf
+        top = float(stack.inv_depth.max())
+        wmax = top if top >= 0.0 else -float(BIG)     # nothing anywhere: no ray can hit
+        q, cl, b, nb = self.device.queue, self.cl, self.buf, self._nbuffer
+        events = [cl.enqueue_copy(q, b["height"], stack.inv_depth, is_blocking=False),
+                  cl.enqueue_copy(q, b["colour"], stack.colour, is_blocking=False)]
+        grid = (-(-self.w4 // 8) * 8, -(-self.h4 // 8) * 8, self.n_layers)
+        kernels = [nb["nbuffer_base"](q, grid, (8, 8, 1), b["height"], b["nbuf"], wait_for=events[:1])]
+        for lv in range(1, self.levels):
+            kernels.append(nb["nbuffer_level"](q, grid, (8, 8, 1), b["nbuf"], np.int32(lv), wait_for=kernels[-1:]))
+        kernels.append(nb["nbuffer_range"](q, (self.n_layers,), None, b["nbuf"], b["range"], wait_for=kernels[-1:]))
+        self.nbuffer_events = kernels
+        return events, wmax
 
     def render(self, stack: LayerStack, coc_scale: float, focus_m: float, thickness_px: float = 1.0,
                seed: int = 0, inv_focus_map=None) -> tuple:
@@ -252,7 +259,7 @@ class LayerTracer:
                              "aperture (> 0) and a finite focus distance > 0")
         if not (math.isfinite(thickness_px) and thickness_px >= 0):
             raise InputError(f"thickness_px = {thickness_px!r}: the surfel slab depth must be >= 0 pixels")
-        events, wmax, _ = self._upload(stack)
+        events, wmax = self._upload(stack)
         cl, q = self.cl, self.device.queue
         b = self.buf
         inv_focus = np.full((self.h, self.w), 1.0 / focus_m, np.float32) if inv_focus_map is None else \
@@ -275,7 +282,7 @@ class LayerTracer:
                 cl.enqueue_copy(q, stats, b["stats"], wait_for=[kernel], is_blocking=False)]
         transfer = event_ms(*events, *down)
         valid = out[..., 3]
-        info = {"kernel_ms": event_ms(kernel), "transfer_ms": transfer,
+        info = {"kernel_ms": event_ms(kernel, *self.nbuffer_events), "transfer_ms": transfer,
                 "rays_hit": int(np.maximum(valid, 0).sum()), "rays_left_image": int(stats[..., 0].sum()),
                 "rays_missed": int(stats[..., 1].sum()), "pixels_no_hit": int((valid <= 0).sum())}
         return np.ascontiguousarray(out[..., :3]), info
@@ -297,7 +304,7 @@ class LayerTracer:
             the ray's [0, wmax] lies off the image.
         """
         rays = np.ascontiguousarray(rays, np.float32)
-        events, wmax, _ = self._upload(stack)
+        events, wmax = self._upload(stack)
         cl, q = self.cl, self.device.queue
         n = len(rays)
         rbuf = cl.Buffer(self.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=rays)
@@ -306,5 +313,5 @@ class LayerTracer:
         ev = self._trace(q, (-(-n // 64) * 64,), (64,), b["height"], b["nbuf"], b["range"], rbuf, np.int32(n),
                          np.float32(wmax), np.float32(thickness), obuf)
         out = np.empty((n, 4), np.float32)
-        cl.enqueue_copy(q, out, obuf, wait_for=[ev, *events])
+        cl.enqueue_copy(q, out, obuf, wait_for=[ev, *events, *self.nbuffer_events])
         return out

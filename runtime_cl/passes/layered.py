@@ -1,7 +1,8 @@
-"""Layered lens-ray tracing (LES09, LES10) as a runtime pass: N thin-lens rays per pixel.
+"""Layered lens-ray tracing (LES09, LES10) as a runtime pass: N lens rays per pixel.
 
-Each output pixel traces ``rays`` lens rays of a thin lens through the frame's layers, nearest
-first, as surfel height fields (:mod:`runtime_cl.layered.tracer`, ``kernels/layered/trace.cl``):
+Each output pixel traces ``rays`` lens rays of the header's lens -- a thin lens, or a thick lens
+through its surfaces with per-channel indices (:mod:`runtime_cl.layered.lenses`) -- through the
+frame's layers, nearest first, as surfel height fields (:mod:`runtime_cl.layered.tracer`):
 min/max clamping with N-buffers over down-sampled layers, empty layers culled, an exact walk of
 what is left; jittered Halton lens samples with per-pixel offsets. Rays that leave the image or
 find nothing are dropped from the pixel's mean (LES09 4.3). No database.
@@ -16,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.errors import InputError
-from runtime_cl.layered.tracer import LayerTracer, layer_stack
+from runtime_cl.layered.lenses import check_lens, tracer_for
+from runtime_cl.layered.tracer import layer_stack
 from runtime_cl.passes.registry import RuntimePass, register_pass
 from runtime_cl.timing import CallTimes
 
@@ -25,7 +27,7 @@ __all__ = ["LayeredPass"]
 
 @register_pass("layered")
 class LayeredPass(RuntimePass):
-    """Lens rays through layered images (LES09 section 4.3, LES10 section 3), thin lens.
+    """Lens rays through layered images (LES09 section 4.3, LES10 section 3), thin or thick lens.
 
     Options
     -------
@@ -53,7 +55,7 @@ class LayeredPass(RuntimePass):
         Seeds the per-pixel offsets into the jittered lens sample set.
     """
 
-    summary = "lens rays through layered height fields (LES09/LES10), thin lens; --rays N"
+    summary = "lens rays through layered height fields (LES09/LES10), thin or thick lens; --rays N"
     database_models = ()
     channels = ("R", "G", "B", "A", "Z")
     layered = True
@@ -69,9 +71,7 @@ class LayeredPass(RuntimePass):
             raise InputError(f"max_layers = {max_layers!r}: trace at least 1 layer, or leave it unset for all")
         if not (isinstance(thickness_px, (int, float)) and np.isfinite(thickness_px) and thickness_px >= 0):
             raise InputError(f"thickness_px = {thickness_px!r}: the surfel slab depth must be >= 0 pixels")
-        if not all(hasattr(self.camera, a) for a in ("coc_scale_px", "focus_distance_m")):
-            raise InputError(f"camera: a {type(self.camera).__name__}; the layered pass traces a thin lens "
-                             "(header lens \"thin\")")
+        check_lens(self.camera)
         if self.layers > 1 and max_layers is None:
             max_layers = self.layers
         if max_layers is not None and not layered_input:
@@ -103,19 +103,15 @@ class LayeredPass(RuntimePass):
         stack = layer_stack(self._layers(frame), opaque=not self.layered_input)
         key = (stack.inv_depth.shape, id(self.device))
         if key not in self._tracers:
-            self._tracers[key] = LayerTracer(stack.shape, len(stack.inv_depth), self.rays,
-                                             downsample=self.downsample, clamp_iters=self.clamp_iters,
-                                             pixel_iters=self.pixel_iters, false_position=self.false_position,
-                                             cone=self.cone,
-                                             device=self.device)
-        height, width = stack.shape
-        focus = self.camera.inverse_focus_map(height, width) if getattr(self.camera, "has_focal_map", False) else None
-        return self._tracers[key], stack, float(self.camera.coc_scale_px(width)), focus
+            self._tracers[key] = tracer_for(self.camera, stack.shape, len(stack.inv_depth), self.rays,
+                                            downsample=self.downsample, clamp_iters=self.clamp_iters,
+                                            pixel_iters=self.pixel_iters, false_position=self.false_position,
+                                            cone=self.cone, device=self.device)
+        return self._tracers[key], stack
 
     def __call__(self, prepared):
-        tracer, stack, scale, focus = prepared
-        image, info = tracer.render(stack, scale, float(self.camera.focus_distance_m), self.thickness_px,
-                                    self.seed, inv_focus_map=focus)
+        tracer, stack = prepared
+        image, info = tracer.render(stack, self.thickness_px, self.seed)
         counts = {"pixels": int(image.shape[0] * image.shape[1]), "rays": self.rays,
                   "input_layers": int(len(stack.inv_depth)), "occupancy": stack.occupancy(),
                   **{k: v for k, v in info.items() if not k.endswith("_ms")}}

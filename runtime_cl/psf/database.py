@@ -270,7 +270,7 @@ class SpreadletDatabase:
         """The database from the file's arrays (header checked, checksum verified)."""
         header = stored = None
         if "header" in arrays and "checksum" in arrays:
-            header = loads(arrays["header"].tobytes(), f"{where} header", REBUILD)
+            header = loads(arrays["header"].tobytes(), f"{where} header", REBUILD, infinite_keys=("surfaces",))
             stored = arrays["checksum"].tobytes().decode("ascii", "replace")
         if not isinstance(header, dict) or header.get("magic") != MAGIC:
             raise InputError(f"{where}: not a splatlab spreadlet database (no '{MAGIC}' header); "

@@ -139,7 +139,7 @@ def test_a_peeling_scene_plans_lens_rays_through_its_peeled_layers():
     assert plan.runtime_passes == ("spreadlets", "splat", "filter", "layered")
     assert plan.pass_run("layered") == ("layered", {"rays": 100, "layered_input": True})
     assert [i.name for i in plan.inputs] == ["pinhole_labelled", "peeled_layers"]
-    assert "layer0..7" in plan.inputs[1].detail
+    assert "layer0..7" in plan.inputs[1].detail and "layer 0: the input; behind it 64 spp" in plan.inputs[1].detail
     tiny = make_plan(load_scene(SCENES / "tiny_foreground.toml"))
     assert tiny.pass_run("layered")[1]["rays"] == 64
     default = make_plan(parse_scene({"scene": {"name": "p", "resolution": [16, 8]}, "camera": {
@@ -159,7 +159,9 @@ def test_peeling_settings_are_checked():
             "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}
     for render, message in (({"peel_layers": 0}, "peel_layers = 0 must be between 1 and 64"),
                             ({"lens_rays": 100000, "peel_layers": 2}, "lens_rays = 100000 must be between 1 and 4096"),
-                            ({"lens_rays": 32}, "lens_rays = 32: lens rays trace peeled layers")):
+                            ({"lens_rays": 32}, "lens_rays = 32: lens rays trace peeled layers"),
+                            ({"peel_spp": 0, "peel_layers": 2}, "peel_spp = 0 must be between 1 and 65536"),
+                            ({"peel_spp": 8}, "peel_spp = 8: the samples of peeled layers; add peel_layers")):
         with pytest.raises(UserError, match=message):
             parse_scene({**base, "render": render}, "p.toml")
     with pytest.raises(UserError, match="layer keys and \\[render\\] peel_layers"):

@@ -1,5 +1,6 @@
 """Header JSON with limits: size, depth, integer digits, NaN/Infinity; bool is not a number."""
 import json
+import re
 
 import pytest
 
@@ -40,3 +41,18 @@ def test_is_number():
     assert is_number(1) and is_number(2.5) and not is_number(True) and not is_number(False)
     assert not is_number(float("nan")) and not is_number(float("inf")) and is_number(float("inf"), finite=False)
     assert not is_number("1") and not is_number(None) and is_number(10 ** 400)
+
+
+def test_infinity_only_under_the_named_keys():
+    """A thick lens's flat faces are Infinity in its header; anywhere else Infinity (and NaN
+    everywhere) is refused, naming where it was."""
+    data = loads('{"surfaces": [[Infinity, 3.0], [-Infinity, 0.0]], "f": 1.0}', "h", "fix",
+                 infinite_keys=("surfaces",))
+    assert data["surfaces"][0][0] == float("inf") and data["surfaces"][1][0] == float("-inf")
+    for text, said in (('{"surfaces": [], "f": Infinity}', "Infinity at 'f'"),
+                       ('{"surfaces": [[NaN]]}', "NaN is not a JSON number"),
+                       ('{"a": [1, {"b": -Infinity}]}', "Infinity at 'a'[1]['b']")):
+        with pytest.raises(InputError, match=re.escape(said)):
+            loads(text, "h", "fix", infinite_keys=("surfaces",))
+    with pytest.raises(InputError, match="Infinity is not a JSON number"):
+        loads('{"surfaces": [[Infinity]]}', "h", "fix")

@@ -56,7 +56,7 @@ inline int trace_lens(float3 *o, float3 *d, const int channel, const int to_sens
     return ok;
 }
 
-__kernel void trace_rays(__global const float *o, __global const float *d, __global const int *channel,
+__kernel void trace_lens_rays(__global const float *o, __global const float *d, __global const int *channel,
                          __global float *o_out, __global float *d_out, __global int *ok, const int m,
                          const int to_sensor) {
     const int i = get_global_id(0);

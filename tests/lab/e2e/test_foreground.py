@@ -5,11 +5,12 @@ the peeled layers, the blurred post turns half transparent and the hidden lights
 Mitsuba's thin-lens reference; traced through the flat pinhole image, rays behind the post find
 nothing and the post stays opaque.
 
-Thresholds, measured (2026-12-02, 64 rays): SSIM 0.882 through the peeled layers, 0.820 through
-the flat image; two 256-spp references with different seeds agree at 0.971 (the noise floor: the
-16-spp input's noise is most of what is left). Mean |error| behind the post: 0.061 peeled, 0.164
-flat. The bounds leave room for the jitter of a changed Mitsuba or PoCL build, not for losing the
-hidden background.
+Thresholds, measured (2026-12-02, 64 rays): SSIM 0.957 through the peeled layers, 0.894 through
+the flat image; two 256-spp references with different seeds agree at 0.971 (the noise floor). Layer
+0 is the 256-spp pinhole input, the layers behind it are peeled at 16 spp (`peel_spp`): with every
+layer at 16 spp the peeled layers scored 0.880 (the in-focus wall's grain). Mean |error| behind the
+post: 0.050 peeled, 0.151 flat. The bounds leave room for the jitter of a changed Mitsuba or PoCL
+build, not for losing the hidden background or the input's samples.
 """
 import numpy as np
 import pytest
@@ -53,7 +54,7 @@ def test_lens_rays_reveal_what_the_pinhole_hides(rendered):
     peeled, timing = run_pass(name, frame_of(image, layered_input=True), camera, **options)
     flat, _ = run_pass(name, frame_of(image), camera, rays=options["rays"])
     s_peeled, s_flat = ssim(peeled, reference), ssim(flat, reference)
-    assert s_peeled > 0.85 and s_peeled > s_flat + 0.04
+    assert s_peeled > 0.93 and s_peeled > s_flat + 0.04
     behind = (slice(None), slice(40, 55))
     err_peeled = np.abs(peeled[behind] - reference[behind]).mean()
     err_flat = np.abs(flat[behind] - reference[behind]).mean()

@@ -32,6 +32,10 @@ def test_atlas_and_table_of_a_traced_database(reference, tmp_path):
     drawn = np.where(db.fast_track, 1.0, db.stats["sparsity"])
     assert row["mean_sparsity_percent"] == pytest.approx(100 * drawn.mean(), rel=1e-5)
     assert 0 < row["mean_sparsity_percent"] <= 100
+    sparse = db.stats["sparsity"][~db.fast_track]
+    if len(sparse):   # LSR18 Fig. 10's figure: the spreadlet-stored samples alone
+        assert row["sparse_only_sparsity_percent"] == pytest.approx(100 * sparse.mean(), rel=1e-5)
+        assert row["sparse_only_sparsity_percent"] <= row["mean_sparsity_percent"] + 1e-9
     assert row["size_MB"] * 1e6 == pytest.approx(db.path.stat().st_size)
     assert row["lsr18"]["samples"] == 100 and row["lsr18"]["mean_sparsity_percent"] == 31.3
     md = files.markdown.read_text()

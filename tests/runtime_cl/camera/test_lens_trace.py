@@ -16,7 +16,7 @@ def runtime_lens(name, focus_m=2.0):
     cam = _focused(LENSES[name], focus_m, 36.0, 1024)
     header = ThickLens(surfaces=LENSES[name], focus_distance_m=focus_m, focus="best", sensor_width_mm=36.0,
                        focal_length_mm=cam.lens.effective_focal_length_mm(587.56), chief_scale_mm=cam.chief_scale_mm,
-                       pupil_radius_mm=cam.pupil_radius_mm, sensor_z_mm=cam.sensor_z_mm, wavelengths_nm=WAVELENGTHS_NM,
+                       pupil_radius_mm=cam.pupil_radius_mm, sensor_z_mm=cam.sensor_z_mm, pupil_z_mm=cam.pupil_z_mm, wavelengths_nm=WAVELENGTHS_NM,
                        indices=tuple(cam.lens.indices(w) for w in WAVELENGTHS_NM))
     return cam, TracedLens.from_camera(header)
 
@@ -87,11 +87,11 @@ def test_headers_without_indices_or_with_bad_ones_are_refused():
     cam, _ = runtime_lens("singlet")
     data = ThickLens(surfaces=LENSES["singlet"], focus_distance_m=2.0, focus="best", sensor_width_mm=36.0,
                      focal_length_mm=49.7, chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm,
-                     sensor_z_mm=cam.sensor_z_mm, wavelengths_nm=WAVELENGTHS_NM,
+                     sensor_z_mm=cam.sensor_z_mm, pupil_z_mm=cam.pupil_z_mm, wavelengths_nm=WAVELENGTHS_NM,
                      indices=tuple(cam.lens.indices(w) for w in WAVELENGTHS_NM)).to_json()
     assert max(ThickLens.from_json(data).indices[0]) > 1.5           # N-BK7 at 650 nm
     for key, value, match in (("indices", [[1.5] * 2] * 3, "indices"), ("wavelengths_nm", [], "wavelengths_nm"),
-                              ("sensor_z_mm", -1.0, "sensor_z_mm")):
+                              ("sensor_z_mm", -1.0, "sensor_z_mm"), ("pupil_z_mm", float("nan"), "pupil_z_mm")):
         with pytest.raises(InputError, match=match):
             ThickLens.from_json({**data, key: value})
     with pytest.raises(InputError, match=r"missing key\(s\) \['indices'\]"):

@@ -84,6 +84,30 @@ def test_nbuffer_bounds_every_block_rectangle():
             assert lo == valid.min() and hi == valid.max()
 
 
+@pytest.mark.parametrize("shape, ds", [((3, 37, 50), 4), ((2, 64, 64), 4), ((1, 9, 131), 2), ((2, 5, 3), 8)])
+def test_device_nbuffer_is_the_numpy_nbuffer(shape, ds):
+    """The N-buffer built on the device (kernels/layered/nbuffer.cl) equals the numpy one bit for
+    bit (min/max of the same floats), empty blocks and a wholly empty layer included, and the
+    per-layer range is its top square."""
+    rng = np.random.default_rng(sum(shape) + ds)
+    inv = rng.uniform(0, 2, shape).astype(np.float32)
+    inv[rng.random(shape) < 0.3] = -1.0
+    inv[-1, : shape[1] // 2] = -1.0
+    if shape[0] > 1:
+        inv[1] = -1.0                                          # an empty layer
+    tracer = LayerTracer(shape[1:], shape[0], 2, downsample=ds)
+    tracer._upload(LayerStack(inv, np.zeros(shape + (4,), np.float32)))
+    ref = minmax_nbuffer(inv, ds)
+    got = np.empty_like(ref)
+    rng_got = np.empty((shape[0], 2), np.float32)
+    import pyopencl as cl
+
+    cl.enqueue_copy(tracer.device.queue, got, tracer.buf["nbuf"], wait_for=tracer.nbuffer_events)
+    cl.enqueue_copy(tracer.device.queue, rng_got, tracer.buf["range"], wait_for=tracer.nbuffer_events)
+    np.testing.assert_array_equal(got, ref)
+    np.testing.assert_array_equal(rng_got, ref[:, -1, 0, 0, :])
+
+
 def test_lens_samples_cover_the_unit_disc_evenly():
     s = disc_samples(512)
     r = np.hypot(s[:, 0], s[:, 1])

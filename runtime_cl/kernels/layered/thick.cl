@@ -1,0 +1,150 @@
+// Lens rays of a thick lens through layered height fields: built after camera/lens_trace.cl (the
+// reversed lens, LENS_* constants) and layered/trace.cl (trace_ray, nbuffer_query, hash_u32).
+//
+// A pixel's sensor point s sends backward rays aimed at points of the exit-pupil box of its
+// radius (runtime_cl/camera/exit_pupil.py) through the lens, per channel with that channel's
+// indices (chromatic aberration). A ray leaving the lens is a straight line in object space; in the
+// pinhole image at the entrance pupil (the labelled pixels' view), parametrised by inverse depth
+// w = 1/Z (Z from the pupil), it is again the line q(w) = a + b w:
+//     X/Z = t + w (o - Z_o t),   t = d_xy / d_z,   Z_o: the depth of its exit point o,
+// so a = centre + F_PX t (where it goes at infinity) and b = F_PX (o - Z_o t) / 1000 (where it
+// crosses the pupil plane; w in 1/m): the thin lens's a = p - xi S / F, b = xi S is the paraxial case.
+// The layers are searched as for the thin lens (trace.cl). A pixel's colour per channel is the
+// cos^4-weighted mean over its rays that hit, which renormalises vignetting as the Mitsuba
+// reference sensor does (lab/reference/thick_lens_sensor.py): blocked rays carry no weight.
+//
+// Constants (-D) besides trace.cl's: NCH (channels = LENS_CHANNELS), MM_PX (sensor mm per pixel),
+// F_PX (the pinhole's focal length in pixels), ORIGIN_Z (the sensor in reversed-lens z), LAST_Z
+// (the forward lens's last vertex), PUPIL_Z (the entrance pupil), PLANE_GAP, NBOX, INV_STEP (the
+// exit-pupil table).
+
+// One backward ray of sensor point s (mm) through the box sample u in [0, 1)^2 in channel ch, as
+// (a, b) with its weight cos^4; false: blocked or totally reflected.
+static bool thick_ray(float2 s, float2 u, int ch, global const float4 *boxes, float2 *a, float2 *b, float *weight)
+{
+    float r = length(s);
+    float4 box = boxes[min((int)(r * INV_STEP), NBOX - 1)];
+    float bx = box.x + u.x * (box.y - box.x), by = box.z * (2.0f * u.y - 1.0f);
+    float cs = r > 0.0f ? s.x / r : 1.0f, sn = r > 0.0f ? s.y / r : 0.0f;
+    float3 dir = normalize((float3)(cs * bx - sn * by - s.x, sn * bx + cs * by - s.y, PLANE_GAP));
+    float c2 = dir.z * dir.z;
+    float3 o = (float3)(s.x, s.y, ORIGIN_Z);
+    if (!trace_lens(&o, &dir, ch, 0) || !(dir.z > 0.0f))
+        return false;
+    float zo = PUPIL_Z - (LAST_Z - o.z);     // forward z = LAST_Z - z'; depth from the pupil
+    float tx = dir.x / dir.z, ty = dir.y / dir.z;
+    // image x runs with lens x, image y against lens y (the sensor sees the scene inverted)
+    *a = (float2)(0.5f * W + F_PX * tx, 0.5f * H - F_PX * ty);
+    *b = (float2)(F_PX * 1e-3f * (o.x - zo * tx), -F_PX * 1e-3f * (o.y - zo * ty));
+    *weight = c2 * c2;
+    return true;
+}
+
+static float2 pixel_sample(global const float2 *samples, uint o, int j)
+{
+    int s = (int)o + j;
+    return samples[s < NSAMPLES ? s : s - NSAMPLES];
+}
+
+static float lane(float4 v, int ch)
+{
+    return ch == 0 ? v.x : (ch == 1 ? v.y : v.z);
+}
+
+// Per layer, the inverse depths the pixel's rays can hit (as pixel_ranges in trace.cl), their
+// footprint at w in [lo, hi] being [amin + w bmin, amax + w bmax] per axis (w >= 0).
+static void thick_ranges(global const float2 *nbuf, global const float2 *range, float2 amin, float2 amax,
+                         float2 bmin, float2 bmax, float wmax, float thick, float *wa, float *wb)
+{
+    for (int k = 0; k < NL; ++k) {
+        float2 r = range[k];
+        float lo = fmax(0.0f, r.x - thick), hi = fmin(wmax, r.y);
+        for (int it = 0; it < PIXEL_ITERS && lo <= hi; ++it) {
+            float2 qlo = amin + fmin(bmin * lo, bmin * hi) - MARGIN, qhi = amax + fmax(bmax * lo, bmax * hi) + MARGIN;
+            int x0 = clamp((int)floor(qlo.x), 0, W - 1), x1 = clamp((int)floor(qhi.x), 0, W - 1);
+            int y0 = clamp((int)floor(qlo.y), 0, H - 1), y1 = clamp((int)floor(qhi.y), 0, H - 1);
+            float2 m = nbuffer_query(nbuf, k, x0 / DS, y0 / DS, x1 / DS, y1 / DS);
+            lo = fmax(lo, m.x - thick);
+            hi = fmin(hi, m.y);
+        }
+        wa[k] = lo;
+        wb[k] = hi;
+    }
+}
+
+// One work item per pixel: NRAYS box samples (per-pixel offsets into the jittered set, LES09 4.5),
+// each traced in every channel. out: the channels' weighted means (xyz) and the (ray, channel)
+// pairs that hit / NCH (w); stats: pairs that left the image, found nothing, were blocked.
+kernel void render_thick(global const float *height, global const float4 *colour, global const float2 *nbuf,
+                         global const float2 *range, global const float2 *samples, global const float4 *boxes,
+                         float wmax, float thick, uint seed, global float4 *out, global int4 *stats)
+{
+    int x = get_global_id(0), y = get_global_id(1);
+    if (x >= W || y >= H)
+        return;
+    float2 s = (float2)(-((float)x + 0.5f - 0.5f * W) * MM_PX, ((float)y + 0.5f - 0.5f * H) * MM_PX);
+    uint o = hash_u32((uint)(y * W + x) ^ hash_u32(seed)) % NSAMPLES;
+    float2 a, b, amin = (float2)(INFINITY), amax = (float2)(-INFINITY), bmin = amin, bmax = amax;
+    float weight;
+    int passed = 0;
+    for (int j = 0; j < NRAYS; ++j)
+        for (int ch = 0; ch < NCH; ++ch)
+            if (thick_ray(s, pixel_sample(samples, o, j), ch, boxes, &a, &b, &weight)) {
+                amin = fmin(amin, a);
+                amax = fmax(amax, a);
+                bmin = fmin(bmin, b);
+                bmax = fmax(bmax, b);
+                ++passed;
+            }
+    float wa[NL], wb[NL];
+    if (passed)
+        thick_ranges(nbuf, range, amin, amax, bmin, bmax, wmax, thick, wa, wb);
+    float sum[NCH], wsum[NCH];
+    for (int ch = 0; ch < NCH; ++ch)
+        sum[ch] = wsum[ch] = 0.0f;
+    int left_n = 0, miss_n = 0, hit_n = 0;
+    for (int j = 0; j < NRAYS && passed; ++j)
+        for (int ch = 0; ch < NCH; ++ch) {
+            if (!thick_ray(s, pixel_sample(samples, o, j), ch, boxes, &a, &b, &weight))
+                continue;
+            bool left;
+            hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, INFINITY, thick, &left);
+            if (hit.layer < 0) {
+                left_n += left ? 1 : 0;
+                miss_n += left ? 0 : 1;
+                continue;
+            }
+            sum[ch] += weight * lane(colour[(size_t)hit.layer * W * H + hit.cell], ch);
+            wsum[ch] += weight;
+            ++hit_n;
+        }
+    float4 own = (float4)0.0f;   // a channel no ray hit: the nearest layer's own pixel, if any
+    for (int k = 0; k < NL; ++k)
+        if (height[(size_t)k * W * H + y * W + x] >= 0.0f) {
+            own = colour[(size_t)k * W * H + y * W + x];
+            break;
+        }
+    float res[3] = {own.x, own.y, own.z};
+    for (int ch = 0; ch < NCH; ++ch)
+        if (wsum[ch] > 0.0f)
+            res[ch] = sum[ch] / wsum[ch];
+    out[y * W + x] = (float4)(res[0], res[1], res[2], (float)hit_n / NCH);
+    stats[y * W + x] = (int4)(left_n, miss_n, NRAYS * NCH - passed, 0);
+}
+
+// Tests: the (a, b) and weight of the rays render_thick traces for pixels (px, py) and samples
+// u; out = (a.x, a.y, b.x, b.y), weight (0: blocked).
+kernel void thick_rays(global const float4 *pixel_u, global const int *channel, global const float4 *boxes, int n,
+                       global float4 *out, global float *weight)
+{
+    int i = get_global_id(0);
+    if (i >= n)
+        return;
+    float4 pu = pixel_u[i];
+    float2 s = (float2)(-(pu.x - 0.5f * W) * MM_PX, (pu.y - 0.5f * H) * MM_PX);
+    float2 a, b;
+    float wt;
+    bool ok = thick_ray(s, pu.zw, channel[i], boxes, &a, &b, &wt);
+    out[i] = ok ? (float4)(a, b) : (float4)(0.0f);
+    weight[i] = ok ? wt : 0.0f;
+}

@@ -188,6 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="polygon: most edges of the rectified aperture (default: its corners, <= 16)")
     p.add_argument("--out", type=Path, required=True, help="output EXR (R, G, B)")
     p.add_argument("--camera", type=Path, help="camera TOML ([camera] table) overriding the EXR header")
+    p.add_argument("--focus-point", metavar="X,Y",
+                   help="focus on what pixel (X, Y) sees (column, row from the top; its Z), overriding the "
+                        "header's focus (thin or thick lens)")
 
     p = sub.add_parser("report", description=DESCRIPTIONS["report"], help="the whole job for scenes: precompute, references, methods, report")
     p.add_argument("scene", type=Path, nargs="+", help="scene file(s) (TOML), e.g. scenes/whirl.toml scenes/gears.toml")

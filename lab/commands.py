@@ -166,6 +166,10 @@ def cmd_render(args) -> int:
     _check_render_options(args, cls)
     check_output(args.out, "--out", (args.input, args.db, args.far_db, args.camera), ".exr")
     image = read_input(args.input, args.camera)
+    if getattr(args, "focus_point", None) is not None:
+        from .focus import refocus_option
+
+        image = refocus_option(image, args.focus_point, f"{args.input} camera")
     db = None if args.db is None else SpreadletDatabase.load(args.db)
     if db is not None:
         check_header(db, image.camera, f"{args.input} camera")

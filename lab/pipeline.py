@@ -121,9 +121,10 @@ def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool 
 
 
 def load_scene_and_plan(path) -> tuple:
+    from .focus import resolve_focus
     from .psf_settings import check_tables
 
-    scene = load_scene(path)
+    scene = resolve_focus(load_scene(path))   # focus_point(s): the depths they see give the focus
     plan = make_plan(scene)
     check_tables(scene, plan.psf_models)   # a bad [psf.*] setting fails before any render
     return scene, plan

@@ -79,15 +79,26 @@ class ThickCamera(Camera):
         Instead of ``lens``: the prescription, object side first; the last row's thickness is 0.
     focus_distance_m : float
         Distance in focus, metres from the entrance pupil (beyond the lens's front focal point).
+    focus_point : (int, int), optional
+        Instead of ``focus_distance_m``: the pixel (column, row from the top) whose depth is in focus
+        (:mod:`lab.focus`; the sensor moves to focus it).
     """
 
     runtime = ThickLens
     lens: str | None = None
     surfaces: typing.Any = None
     focus_distance_m: float | None = None
+    focus_point: tuple[int, int] | None = None
+
+    focus_points = None   # a tilted sensor is the thin lens's (lab.focus)
 
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThickCamera":
+        if "focus_points" in table or "sensor_tilt_deg" in table:
+            raise UserError(f"{where}: focus_points / sensor_tilt_deg: tilt-shift (Scheimpflug) is modelled for the "
+                            "thin lens; use model = 'thin', or one focus_point = [x, y]")
+        if "focus_point" in table and "focus_distance_m" in table:
+            raise UserError(f"{where}: focus_point and focus_distance_m: give one way to focus; remove the other")
         other = [k for k in THIN_KEYS if k in table]
         if other:
             raise UserError(f"{where}: {other}: a thick lens's focal length, f-number, field of view and aperture "
@@ -104,8 +115,13 @@ class ThickCamera(Camera):
                             f"surfaces = [{ROW}, ...]")
         if self.surfaces is not None:
             object.__setattr__(self, "surfaces", surface_rows(self.surfaces))
+        if self.focus_point is not None and min(self.focus_point) < 0:
+            raise UserError(f"focus_point = {list(self.focus_point)}: pixels are [column, row] counted from 0 at the "
+                            "top left")
         if self.focus_distance_m is None:
-            raise UserError("a thick lens needs focus_distance_m (metres from its entrance pupil)")
+            if self.focus_point is not None:   # resolved from the input's depth (lab.focus)
+                return
+            raise UserError("a thick lens needs focus_distance_m (metres from its entrance pupil) or focus_point = [x, y]")
         self.optics()
 
     def rows(self) -> tuple:
@@ -150,13 +166,17 @@ class ThickCamera(Camera):
         return next(row[3] for row in self.rows() if row[0] == 0.0)
 
     def runtime_camera(self) -> ThickLens:
+        if self.focus_distance_m is None:
+            raise UserError("focus_point: the focus is not resolved yet; load the scene with "
+                            "lab.pipeline.load_scene_and_plan (lab.focus.resolve_focus)")
         cam = self.optics()
         return ThickLens(surfaces=self.rows(), focus_distance_m=self.focus_distance_m, focus=FOCUS,
                          sensor_width_mm=self.sensor_width_mm,
                          focal_length_mm=cam.lens.effective_focal_length_mm(FOCUS_WAVELENGTH_NM),
                          chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm,
                          sensor_z_mm=cam.sensor_z_mm, pupil_z_mm=cam.pupil_z_mm, wavelengths_nm=WAVELENGTHS_NM,
-                         indices=tuple(cam.lens.indices(w) for w in WAVELENGTHS_NM))
+                         indices=tuple(cam.lens.indices(w) for w in WAVELENGTHS_NM),
+                         focus_points=(tuple(self.focus_point),) if self.focus_point is not None else ())
 
     def camera_json(self) -> dict:
         return {**self.runtime_camera().to_json(), "shutter": self.header_shutter()}

@@ -4,13 +4,17 @@
   (a = f / 2N), ``focus_distance_m``, and ``aperture``: ``{ blades, rotation_deg, rounding }``
   for a polygonal iris (:class:`lab.optics.iris.Iris`) or ``{ shape = "star" | "heart" |
   "image", path }`` for a stylized one (:class:`lab.cameras.shaped_aperture.ShapedAperture`);
-  either's circumradius is the aperture radius.
+  either's circumradius is the aperture radius. Instead of ``focus_distance_m``: ``focus_point =
+  [x, y]`` (focus on what that pixel sees) or ``focus_points = [[x, y], ...]`` (>= 3: the sensor
+  tilts to focus their least-squares plane, Scheimpflug), resolved by :mod:`lab.focus`;
+  ``sensor_tilt_deg = [tx, ty]`` tilts the sensor by hand.
 - Runtime twin: :class:`runtime_cl.camera.thin_lens.ThinLens` (the aperture's shape does not
   change its CoC).
 - Header: the twin's JSON, the iris or the shape as ``"aperture"``, the shutter.
 - Plan: a round aperture runs the spreadlet passes on a ``simple_lens`` database against
   Mitsuba's ``thinlens`` (a moving scene: a ``combined`` database against sub-frames, see
-  :func:`lab.cameras.base.motion_plan`), and with ``[render] peel_layers`` also LES10's lens rays
+  :func:`lab.cameras.base.motion_plan`; a tilted sensor renders through :mod:`lab.reference.
+  tilted_lens`), and with ``[render] peel_layers`` also LES10's lens rays
   through the umbra-peeled layers (the ``layered`` pass); an iris runs MHU21's exact polygon passes (no PSF database), a shape
   the spreadlet passes on a ``stylized`` database, both against the same lens through that
   aperture (:mod:`lab.reference.aperture_lens`).
@@ -21,6 +25,7 @@ import math
 import typing
 from dataclasses import dataclass
 
+from runtime_cl.camera.focal_surface import read_surface
 from runtime_cl.camera.thin_lens import ThinLens
 
 from ..config import from_table
@@ -51,6 +56,16 @@ class ThinCamera(Camera):
         Instead of the round aperture, a polygonal iris ``{ blades = 6, rotation_deg = 0,
         rounding = 0 }`` (:class:`lab.optics.iris.Iris`) or a stylized shape ``{ shape = "star" }``
         (:class:`lab.cameras.shaped_aperture.ShapedAperture`); its circumradius is the aperture radius.
+    focus_point : (int, int), optional
+        Instead of ``focus_distance_m``: the pixel (column, row from the top) whose depth is in focus.
+    focus_points : list of (int, int), optional
+        Instead of ``focus_distance_m``: >= 3 pixels; the sensor tilts to focus their plane.
+    sensor_tilt_deg : (float, float), default (0, 0)
+        Sensor tilt (Scheimpflug) about the image's y and x axes, by hand or from ``focus_points``.
+    focal_surface : dict, optional
+        Expressive focus (LES10 5.2): ``{ points = [[x, y, depth_m], ...], beta = 2, dof_extent = 1 }``
+        (:func:`runtime_cl.camera.focal_surface.read_surface`); no physical reference, so for
+        ``splatlab render --camera FILE.toml`` only.
     """
 
     runtime = ThinLens
@@ -59,9 +74,20 @@ class ThinCamera(Camera):
     aperture_radius_mm: float | None = None
     focus_distance_m: float | None = None
     aperture: typing.Any = None
+    focus_point: tuple[int, int] | None = None
+    focus_points: tuple[tuple[int, int], ...] | None = None
+    sensor_tilt_deg: tuple[float, float] = (0.0, 0.0)
+    focal_surface: dict | None = None
 
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThinCamera":
+        given = [k for k in ("focus_distance_m", "focus_point", "focus_points") if k in table]
+        if len(given) > 1:
+            raise UserError(f"{where}: {given}: give one way to focus (a distance, a pixel, or >= 3 pixels for a "
+                            "tilted focal plane); remove the others")
+        if "focus_points" in table and "sensor_tilt_deg" in table:
+            raise UserError(f"{where}: focus_points and sensor_tilt_deg: the focus points set the tilt; remove "
+                            "sensor_tilt_deg")
         if "fov_deg" in table:
             fov = table["fov_deg"]
             fov = float(fov) if type(fov) is int else fov   # shown as from_table would convert it
@@ -75,12 +101,31 @@ class ThinCamera(Camera):
                                                         and self.aperture_radius_mm > 0):
             raise UserError(f"aperture_radius_mm = {self.aperture_radius_mm!r}: the aperture radius "
                             "must be > 0 mm (use model = 'pinhole' for an all-sharp image)")
-        if self.focal_length_mm is None or self.focus_distance_m is None:
-            raise UserError("a thin lens needs focal_length_mm and focus_distance_m")
+        if self.focal_length_mm is None or (self.focus_distance_m is None and self.focus_point is None
+                                            and self.focus_points is None):
+            raise UserError("a thin lens needs focal_length_mm and focus_distance_m (or focus_point = [x, y])")
+        for p in ([self.focus_point] if self.focus_point is not None else []) + list(self.focus_points or ()):
+            if min(p) < 0:
+                raise UserError(f"focus pixel {list(p)}: pixels are [column, row] counted from 0 at the top left")
+        if self.focus_points is not None and len(self.focus_points) < 3:
+            raise UserError(f"focus_points = {[list(p) for p in self.focus_points]}: a focal plane needs >= 3 "
+                            "points; give more, or one focus_point = [x, y]")
+        if self.focal_surface is not None:
+            try:
+                read_surface(self.focal_surface, "")
+            except UserError as exc:
+                raise UserError(str(exc).strip()) from None
+            if self.focus_distance_m is None:
+                raise UserError("focal_surface: give focus_distance_m too (it sets the lens's image distance, so the "
+                                "field of view)")
+        tilt = self.sensor_tilt_deg != (0.0, 0.0) or self.focus_points is not None
+        if tilt and self.aperture is not None:
+            raise UserError(f"aperture = {self.aperture!r} with a tilted sensor: the tilt-shift reference traces a "
+                            "round aperture; remove the aperture table, or the tilt")
         if (self.f_number is None) == (self.aperture_radius_mm is None):
             raise UserError(f"give exactly one of f_number ({self.f_number}) and aperture_radius_mm "
                             f"({self.aperture_radius_mm}); remove the other")
-        if self.focus_distance_m * 1000.0 <= self.focal_length_mm:
+        if self.focus_distance_m is not None and self.focus_distance_m * 1000.0 <= self.focal_length_mm:
             raise UserError(f"focus_distance_m = {self.focus_distance_m} is closer than the focal length "
                             f"({self.focal_length_mm} mm); use a focus distance > "
                             f"{self.focal_length_mm / 1000.0} m")
@@ -106,8 +151,14 @@ class ThinCamera(Camera):
         n = self.f_number
         if n is None:  # aperture radius a = f / (2 N)
             n = self.focal_length_mm / (2.0 * self.aperture_radius_mm)
+        if self.focus_distance_m is None:
+            raise UserError("focus_point(s): the focus is not resolved yet; load the scene with "
+                            "lab.pipeline.load_scene_and_plan (lab.focus.resolve_focus)")
+        pixels = [self.focus_point] if self.focus_point is not None else list(self.focus_points or ())
         return ThinLens(focal_length_mm=self.focal_length_mm, f_number=n,
-                        focus_distance_m=self.focus_distance_m, sensor_width_mm=self.sensor_width_mm)
+                        focus_distance_m=self.focus_distance_m, sensor_width_mm=self.sensor_width_mm,
+                        sensor_tilt_deg=self.sensor_tilt_deg, focus_points=tuple(tuple(p) for p in pixels),
+                        focal_surface=self.focal_surface)
 
     def thin_lens(self) -> ThinLens:
         return self.runtime_camera()
@@ -136,7 +187,14 @@ class ThinCamera(Camera):
             raise UserError(f"{scene.source} [medium]: a medium with a thin lens; no PSF model combines "
                             "defocus and scattering (LSR18's Volume PSFs are a pinhole's): set [camera] "
                             "model = \"pinhole\" for fog, or remove [medium]")
+        if self.focal_surface is not None:
+            raise UserError(f"{scene.source} [camera] focal_surface: expressive focus has no physical reference to "
+                            "report against; render a labelled input with it: splatlab render IN.exr --camera "
+                            "FILE.toml (a [camera] table with the focal_surface)")
         if scene_moves(scene):
+            if self.runtime_camera().tilted:
+                raise UserError(f"{scene.source} [camera]: a tilted sensor in a moving scene; the motion reference "
+                                "traces an untilted lens: remove the velocities, or the tilt")
             if self.aperture is not None:
                 raise UserError(f"{scene.source} [camera] aperture = {self.aperture!r}: the scene moves, and the "
                                 "motion-blur model (combined) traces a round aperture; remove the aperture "
@@ -151,17 +209,22 @@ class ThinCamera(Camera):
             "dof": self._dof(),
             "aperture": "circle",
             "psf_models": ("simple_lens",),
-            "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens, "
-                                                    f"{r.reference_spp} spp, max depth {r.max_depth}"),),
+            "references": (Step("mitsuba_thinlens", f"Mitsuba path trace through the thin lens"
+                                                    f"{self._tilt_note()}, {r.reference_spp} spp, max depth "
+                                                    f"{r.max_depth}"),),
             "runtime_passes": ("spreadlets", "splat", "filter"),
             "skipped": (),
         }
         return with_layered_pass(rule, scene)
 
+    def _tilt_note(self) -> str:
+        return " and its tilted sensor (lab.reference.tilted_lens)" if self.runtime_camera().tilted else ""
+
     def _dof(self) -> str:
         lens = self.runtime_camera()
+        tilt = f", sensor tilt {lens.sensor_tilt_deg[0]:.3g}/{lens.sensor_tilt_deg[1]:.3g} deg" if lens.tilted else ""
         return (f"thin ({lens.focal_length_mm:g} mm f/{lens.f_number:.3g}, "
-                f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)")
+                f"focus {lens.focus_distance_m:g} m{tilt}, sensor {lens.sensor_width_mm:g} mm)")
 
     def _plan_iris(self, scene) -> dict:
         iris, r = self.iris(), scene.render
@@ -211,6 +274,12 @@ class ThinCamera(Camera):
         lens, iris, shaped = self.runtime_camera(), self.iris(), self.shaped()
         out = dict(sensor, type="thinlens", aperture_radius=lens.aperture_radius_m,
                    focus_distance=lens.focus_distance_m)
+        if lens.tilted:   # Scheimpflug: the Python sensor of lab.reference.tilted_lens
+            from ..reference.tilted_lens import register
+
+            del out["fov_axis"]   # the plugin's fov is horizontal
+            return dict(out, type=register(), focal_length=lens.focal_length_mm / 1000.0,
+                        tilt_x_deg=lens.sensor_tilt_deg[0], tilt_y_deg=lens.sensor_tilt_deg[1])
         if iris is not None or shaped is not None:
             from ..reference.aperture_lens import register
 

@@ -71,5 +71,8 @@ def coc_range(image: LabelledImage, lens=None) -> CocRange:
     """
     z_min, z_max = depth_range(image)
     lens = lens or from_header(image.camera, "camera header")
+    if getattr(lens, "has_focal_map", False):   # the focus differs per pixel: the extremes of the map
+        r = lens.coc_radius_px(np.asarray(image.depth, np.float64), image.width)
+        return CocRange(z_min, z_max, float(r.min()), float(r.max()))
     r = lens.coc_radius_px(np.array([z_min, z_max]), image.width)
     return CocRange(z_min, z_max, float(r[0]), float(r[1]))

@@ -97,6 +97,7 @@ class ThickLens:
     pupil_z_mm: float
     wavelengths_nm: tuple
     indices: tuple
+    focus_points: tuple = ()   # the pixel the focus was taken from, [[x, y]] (what the header records)
 
     def __post_init__(self):
         object.__setattr__(self, "surfaces", surface_rows(self.surfaces, "camera surfaces"))
@@ -117,6 +118,11 @@ class ThickLens:
                              f"behind each of the {n} surfaces (1 <= n < 4)")
         object.__setattr__(self, "wavelengths_nm", tuple(float(w) for w in waves))
         object.__setattr__(self, "indices", tuple(tuple(float(v) for v in row) for row in idx))
+        pts = self.focus_points
+        if not (isinstance(pts, (list, tuple)) and all(isinstance(p, (list, tuple)) and len(p) == 2 and all(
+                type(v) is int and v >= 0 for v in p) for p in pts)):
+            raise InputError(f"camera focus_points = {pts!r}: give the focus pixel as [[x, y]] (integers >= 0)")
+        object.__setattr__(self, "focus_points", tuple(tuple(p) for p in pts))
         if self.focus not in FOCUS_RULES:
             raise InputError(f"camera focus = {self.focus!r}: use one of {list(FOCUS_RULES)}")
 
@@ -140,18 +146,20 @@ class ThickLens:
     def to_json(self) -> dict:
         return {"lens": self.lens, "surfaces": [list(row) for row in self.surfaces],
                 **{name: getattr(self, name) for name in NUMBERS}, "pupil_z_mm": self.pupil_z_mm, "focus": self.focus,
-                "wavelengths_nm": list(self.wavelengths_nm), "indices": [list(row) for row in self.indices]}
+                "wavelengths_nm": list(self.wavelengths_nm), "indices": [list(row) for row in self.indices],
+                **({"focus_points": [list(p) for p in self.focus_points]} if self.focus_points else {})}
 
     @classmethod
     def from_json(cls, data: dict, source: str = "camera") -> "ThickLens":
         """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
         if data.get("lens") != cls.lens:
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
-        known = {"lens", "surfaces", "focus", "shutter", "wavelengths_nm", "indices", "pupil_z_mm", *NUMBERS}
+        known = {"lens", "surfaces", "focus", "shutter", "wavelengths_nm", "indices", "pupil_z_mm", "focus_points",
+                 *NUMBERS}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")
-        missing = sorted(known - {"shutter"} - set(data))
+        missing = sorted(known - {"shutter", "focus_points"} - set(data))
         if missing:
             raise InputError(f"{source}: missing key(s) {missing} for a thick lens")
         try:

@@ -11,14 +11,23 @@ sensor ``sensor_width`` wide:
 signed: positive behind the focus plane, negative in front. Written with 1/z and 1/F so z = inf
 (background at infinity) and F = inf (focus at infinity: v = f, every finite depth in front) are
 exact.
+
+A tilted sensor (``sensor_tilt_deg``, Scheimpflug) or an expressive focal surface
+(``focal_surface``, LES10 5.2) replaces 1/F by a per-pixel map w_f(p)
+(:mod:`runtime_cl.camera.focal_surface`, :meth:`ThinLens.inverse_focus_map`): every pass takes
+it from here, and ``coc_radius_px`` then needs the (H, W) depth map.
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numpy as np
+
 from runtime_cl.camera.common import depth_m, register_lens
+from runtime_cl.camera.focal_surface import check_tilt, expressive_inverse_focus, read_surface, tilt_inverse_focus
 from runtime_cl.errors import InputError
 from runtime_cl.json_values import is_number
 
@@ -39,6 +48,12 @@ class ThinLens:
         focuses at infinity.
     sensor_width_mm : float
         Sensor width in millimetres (> 0); the image width in pixels spans it.
+    sensor_tilt_deg : (float, float), default (0, 0)
+        Sensor tilt about the image's y and x axes (Scheimpflug; the focal plane tilts).
+    focal_surface : str, optional
+        An expressive focal surface as canonical JSON (:func:`runtime_cl.camera.focal_surface.read_surface`).
+    focus_points : tuple of (int, int), default ()
+        The pixels the focus was taken from (column, row from the top): what the header records.
     """
 
     lens: ClassVar[str]
@@ -46,6 +61,9 @@ class ThinLens:
     f_number: float
     focus_distance_m: float
     sensor_width_mm: float = 36.0
+    sensor_tilt_deg: tuple = (0.0, 0.0)
+    focal_surface: str | None = None
+    focus_points: tuple = ()
 
     def __post_init__(self):
         for name in ("focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm"):
@@ -59,6 +77,42 @@ class ThinLens:
                 f"camera focus_distance_m = {self.focus_distance_m}: a lens of focal length "
                 f"{self.focal_length_mm} mm cannot focus closer than its focal length; "
                 f"use a focus distance > {self.focal_length_mm / 1000.0} m")
+        object.__setattr__(self, "sensor_tilt_deg", check_tilt(self.sensor_tilt_deg))
+        if self.focal_surface is not None:
+            surface = read_surface(json.loads(self.focal_surface) if isinstance(self.focal_surface, str)
+                                   else self.focal_surface)
+            object.__setattr__(self, "focal_surface", json.dumps(surface, sort_keys=True))
+            if self.tilted:
+                raise InputError(f"camera sensor_tilt_deg = {list(self.sensor_tilt_deg)} with a focal_surface: "
+                                 "the surface sets the focus of every pixel; remove one of them")
+        pts = self.focus_points
+        if not (isinstance(pts, (list, tuple)) and all(
+                isinstance(p, (list, tuple)) and len(p) == 2 and all(type(v) is int and v >= 0 for v in p)
+                for p in pts)):
+            raise InputError(f"camera focus_points = {pts!r}: give the focus pixels as [[x, y], ...] (integers >= 0)")
+        object.__setattr__(self, "focus_points", tuple(tuple(p) for p in pts))
+
+    @property
+    def tilted(self) -> bool:
+        return self.sensor_tilt_deg != (0.0, 0.0)
+
+    @property
+    def has_focal_map(self) -> bool:
+        """True when the focus varies per pixel (a tilt or a focal surface)."""
+        return self.tilted or self.focal_surface is not None
+
+    def surface(self) -> dict | None:
+        """The expressive focal surface (:func:`runtime_cl.camera.focal_surface.read_surface`), or None."""
+        return None if self.focal_surface is None else json.loads(self.focal_surface)
+
+    def inverse_focus_map(self, height: int, width: int) -> np.ndarray:
+        """(H, W) float64: per pixel, 1 / the distance in focus along its chief ray (1/F untilted)."""
+        if self.focal_surface is not None:
+            return expressive_inverse_focus(height, width, self.surface())
+        if self.tilted:
+            return tilt_inverse_focus(height, width, self.focal_px(width), 1.0 / self.focus_distance_m,
+                                      self.image_distance_m, self.sensor_tilt_deg)
+        return np.full((height, width), 1.0 / self.focus_distance_m)
 
     @property
     def aperture_radius_m(self) -> float:
@@ -81,19 +135,35 @@ class ThinLens:
         return self.image_distance_m * width_px / (self.sensor_width_mm / 1000.0)
 
     def coc_scale_px(self, width_px: int) -> float:
-        """a v W / sensor_width: the CoC radius in pixels per dioptre of defocus (1/F - 1/z)."""
-        return self.aperture_radius_m * self.image_distance_m * width_px / (self.sensor_width_mm / 1000.0)
+        """a v W / sensor_width: the CoC radius in pixels per dioptre of defocus (1/F - 1/z); an
+        expressive focal surface divides it by its ``dof_extent``."""
+        extent = 1.0 if self.focal_surface is None else self.surface()["dof_extent"]
+        return self.aperture_radius_m * self.image_distance_m * width_px / (self.sensor_width_mm / 1000.0) / extent
 
     def coc_radius_px(self, z_m, width_px: int):
         """Signed circle-of-confusion radius in pixels for camera-space depth ``z_m`` (metres).
 
         ``z_m`` may be a scalar or array; ``inf`` is allowed (background), z <= 0 or NaN is not.
+        With a per-pixel focus (:attr:`has_focal_map`) ``z_m`` must be the (H, W) depth map.
         """
-        return self.coc_scale_px(width_px) * (1.0 / self.focus_distance_m - 1.0 / depth_m(z_m))
+        z = depth_m(z_m)
+        if not self.has_focal_map:
+            return self.coc_scale_px(width_px) * (1.0 / self.focus_distance_m - 1.0 / z)
+        if z.ndim != 2 or z.shape[1] != width_px:
+            raise InputError(f"depth of shape {z.shape}: a tilted or expressive focus differs per pixel; give the "
+                             f"(H, {width_px}) depth map")
+        return self.coc_scale_px(width_px) * (self.inverse_focus_map(*z.shape) - 1.0 / z)
 
     def to_json(self) -> dict:
-        return {"lens": self.lens, "focal_length_mm": self.focal_length_mm, "f_number": self.f_number,
-                "focus_distance_m": self.focus_distance_m, "sensor_width_mm": self.sensor_width_mm}
+        out = {"lens": self.lens, "focal_length_mm": self.focal_length_mm, "f_number": self.f_number,
+               "focus_distance_m": self.focus_distance_m, "sensor_width_mm": self.sensor_width_mm}
+        if self.tilted:   # written only when used: untilted headers stay as they were
+            out["sensor_tilt_deg"] = list(self.sensor_tilt_deg)
+        if self.focal_surface is not None:
+            out["focal_surface"] = self.surface()
+        if self.focus_points:
+            out["focus_points"] = [list(p) for p in self.focus_points]
+        return out
 
     @classmethod
     def from_json(cls, data: dict, source: str = "camera") -> "ThinLens":
@@ -105,7 +175,7 @@ class ThinLens:
         if data.get("lens") != cls.lens:
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
         known = {"lens", "focal_length_mm", "f_number", "focus_distance_m", "sensor_width_mm", "shutter",
-                 "aperture"}
+                 "aperture", "sensor_tilt_deg", "focal_surface", "focus_points"}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")
@@ -115,6 +185,8 @@ class ThinLens:
         try:
             return cls(focal_length_mm=data["focal_length_mm"], f_number=data["f_number"],
                        focus_distance_m=data["focus_distance_m"],
-                       sensor_width_mm=data.get("sensor_width_mm", 36.0))
+                       sensor_width_mm=data.get("sensor_width_mm", 36.0),
+                       sensor_tilt_deg=data.get("sensor_tilt_deg", (0.0, 0.0)),
+                       focal_surface=data.get("focal_surface"), focus_points=data.get("focus_points", ()))
         except InputError as exc:
             raise InputError(f"{source}: {exc}") from None

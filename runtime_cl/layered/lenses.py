@@ -19,10 +19,13 @@ class ThinRays:
     def __init__(self, camera, shape, n_layers, rays, **options):
         self.camera = camera
         self.tracer = LayerTracer(shape, n_layers, rays, **options)
+        # A tilted or expressive focus: each pixel's own 1/F (ThinLens.inverse_focus_map), made once.
+        self.focus = camera.inverse_focus_map(*shape) if getattr(camera, "has_focal_map", False) else None
 
     def render(self, stack, thickness_px, seed):
         scale = float(self.camera.coc_scale_px(stack.shape[1]))
-        return self.tracer.render(stack, scale, float(self.camera.focus_distance_m), thickness_px, seed)
+        return self.tracer.render(stack, scale, float(self.camera.focus_distance_m), thickness_px, seed,
+                                  inv_focus_map=self.focus)
 
 
 class ThickRays:

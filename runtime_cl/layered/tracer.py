@@ -200,6 +200,7 @@ class LayerTracer:
                     "range": cl.Buffer(ctx, mf.READ_ONLY, 8 * self.n_layers),
                     "samples": cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.samples),
                     "out": cl.Buffer(ctx, mf.WRITE_ONLY, 16 * n),
+                    "inv_focus": cl.Buffer(ctx, mf.READ_ONLY, 4 * n),
                     "mip": cl.Buffer(ctx, mf.READ_ONLY, 16 * self.n_layers * (2 * n + 4 * self.mips)
                                      if self.cone else 16),
                     "mip_offset": cl.Buffer(ctx, mf.READ_ONLY, 4 * self.n_layers * self.mips),
@@ -226,7 +227,7 @@ class LayerTracer:
         return events, wmax
 
     def render(self, stack: LayerStack, coc_scale: float, focus_m: float, thickness_px: float = 1.0,
-               seed: int = 0) -> tuple:
+               seed: int = 0, inv_focus_map=None) -> tuple:
         """Trace ``rays`` lens rays per pixel through ``stack``.
 
         Parameters
@@ -240,6 +241,9 @@ class LayerTracer:
             Slab depth of a surfel in pixels of ray travel (see the kernel file).
         seed : int, default 0
             Seeds the per-pixel offsets into the lens sample set.
+        inv_focus_map : (H, W) array, optional
+            Per pixel, 1 / the distance in focus (a tilted or expressive focus,
+            ``ThinLens.inverse_focus_map``); default 1 / ``focus_m`` everywhere.
 
         Returns
         -------
@@ -259,13 +263,18 @@ class LayerTracer:
         events, wmax = self._upload(stack)
         cl, q = self.cl, self.device.queue
         b = self.buf
+        inv_focus = np.full((self.h, self.w), 1.0 / focus_m, np.float32) if inv_focus_map is None else \
+            np.ascontiguousarray(inv_focus_map, np.float32)
+        if inv_focus.shape != (self.h, self.w) or not np.all(np.isfinite(inv_focus)):
+            raise InputError(f"inv_focus_map: shape {inv_focus.shape}, need finite values of shape {(self.h, self.w)}")
+        events.append(cl.enqueue_copy(q, b["inv_focus"], inv_focus, is_blocking=False))
         if self.cone:
             mip, offsets = colour_mipmaps(stack, self.mips)
             events += [cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),
                        cl.enqueue_copy(q, b["mip_offset"], offsets, is_blocking=False)]
         gsize = (-(-self.w // 8) * 8, -(-self.h // 8) * 8)
         kernel = self._render(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["samples"],
-                              np.float32(coc_scale), np.float32(1.0 / focus_m), np.float32(wmax),
+                              np.float32(coc_scale), b["inv_focus"], np.float32(wmax),
                               np.float32(thickness_px / coc_scale), np.uint32(seed % 2**32), b["mip"],
                               b["mip_offset"], np.float32(math.sqrt(math.pi / self.rays)), b["out"], b["stats"])
         out = np.empty((self.h, self.w, 4), np.float32)

@@ -7,6 +7,7 @@ min/max clamping with N-buffers over down-sampled layers, empty layers culled, a
 what is left; jittered Halton lens samples with per-pixel offsets. Rays that leave the image or
 find nothing are dropped from the pixel's mean (LES09 4.3). No database.
 
+A tilted or expressive focus (``ThinLens.inverse_focus_map``) gives each pixel its own 1/F.
 With ``layered_input`` the frame's ``layerN.*`` layers are traced (e.g. LES10's umbra-peeled
 layers from ``lab.reference.peel``), else the flat image as one opaque layer: lens rays then see
 only what the pinhole saw.

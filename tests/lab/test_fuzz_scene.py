@@ -100,8 +100,10 @@ def check_file(data: bytes):
 
 
 def test_shipped_scenes_plan():
+    from lab.focus import resolve_focus
+
     for name, data in PARSED.items():
-        make_plan(parse_scene(copy.deepcopy(data), name))
+        make_plan(resolve_focus(parse_scene(copy.deepcopy(data), name)))   # focus_point(s): from their depths
 
 
 @FAST

@@ -198,9 +198,10 @@ def test_load_camera_from_scene_or_camera_file(tmp_path):
 @pytest.mark.parametrize("name", sorted(p.name for p in SCENES.glob("*.toml")))
 def test_shipped_scenes_load_and_plan(name):
     """Every shipped scene is valid, plans, and only tables its plan uses (no [psf.X] it skips)."""
+    from lab.focus import resolve_focus
     from lab.plan import make_plan
 
-    s = load_scene(SCENES / name)
+    s = resolve_focus(load_scene(SCENES / name))   # focus_point(s): from the depths they see
     plan = make_plan(s)
     assert set(s.psf) <= set(plan.psf_models), (set(s.psf), plan.psf_models)
 

@@ -265,12 +265,13 @@ static uint hash_u32(uint x)
 // behind the surfel's slab, up to CONE_STEPS hits. A ray's weight is the fraction it found.
 kernel void render(global const float *height, global const float4 *colour, global const float2 *nbuf,
                    global const float2 *range, global const float2 *samples, float coc_scale,
-                   float inv_focus, float wmax, float thick, uint seed, global const float4 *mip,
+                   global const float *inv_focus_map, float wmax, float thick, uint seed, global const float4 *mip,
                    global const int *mip_offset, float lambda, global float4 *out, global int2 *stats)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= W || y >= H)
         return;
+    float inv_focus = inv_focus_map[y * W + x];   // 1/F, or the pixel's own on a tilted/expressive focal surface
     float2 p = (float2)(x + 0.5f, y + 0.5f);
     uint o = hash_u32((uint)(y * W + x) ^ hash_u32(seed)) % NSAMPLES;
     float4 sum = (float4)0.0f;

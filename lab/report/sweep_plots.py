@@ -1,0 +1,79 @@
+"""The accuracy-vs-time plot: SSIM and PSNR against time (log), knob curves, the Pareto front."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+from runtime_cl.atomic_file import atomic_path
+
+from .pareto import pareto_front
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+__all__ = ["accuracy_time_plot", "SCORES"]
+
+SCORES = (("ssim", "SSIM vs reference"), ("psnr", "PSNR vs reference [dB]"))
+MARKERS = "osD^v<>Ph*X"
+
+
+def _curves(points):
+    """(method, knob) -> point indices in knob order (numbers by value, names as swept)."""
+    groups: dict[tuple, list[int]] = {}
+    for i, p in enumerate(points):
+        groups.setdefault((p["method"], p.get("knob")), []).append(i)
+    for key, idx in groups.items():
+        if all(isinstance(points[i].get("value"), (int, float)) for i in idx):
+            idx.sort(key=lambda i: points[i]["value"])
+    return groups
+
+
+def _finite(p, key) -> bool:
+    v = p.get(key)
+    return v is not None and math.isfinite(v) and p.get("time_ms") is not None and p["time_ms"] > 0
+
+
+def accuracy_time_plot(points, path, title: str) -> None:
+    """Two panels (SSIM, PSNR) of ``points`` (dicts with ``method``, ``time_ms``, ``ssim``,
+    ``psnr`` and optionally ``knob``, ``value``, ``base``) against time on a log axis: each
+    method's points joined along its knob, the report's own run ringed, the Pareto front drawn.
+    Saved atomically as PNG."""
+    methods = list(dict.fromkeys(p["method"] for p in points))
+    knobs = list(dict.fromkeys(p.get("knob") for p in points))
+    colours = {m: plt.get_cmap("tab10")(i % 10) for i, m in enumerate(methods)}
+    marks = {k: MARKERS[i % len(MARKERS)] for i, k in enumerate(knobs)}
+    fig, axes = plt.subplots(1, 2, figsize=(12.5, 4.8), dpi=110)
+    for ax, (key, ylabel) in zip(axes, SCORES):
+        usable = [p for p in points if _finite(p, key)]
+        for (method, knob), idx in _curves(usable).items():
+            xs = [usable[i]["time_ms"] for i in idx]
+            ys = [usable[i][key] for i in idx]
+            label = method if knob is None else f"{method} · {knob}"
+            ax.plot(xs, ys, marker=marks[knob], color=colours[method], lw=1.2, ms=6, alpha=0.9,
+                    label=label if ax is axes[0] else None)
+            for i in idx:
+                p = usable[i]
+                if knob is not None:
+                    ax.annotate(str(p["value"]), (p["time_ms"], p[key]), textcoords="offset points",
+                                xytext=(4, 3), fontsize=7, color=colours[method])
+                if knob is None or p.get("base"):
+                    ax.plot(p["time_ms"], p[key], marker="o", ms=11, mfc="none", mec="black", mew=0.8)
+        front = [usable[i] for i in pareto_front(usable, score_key=key)]
+        if front:
+            ax.step([p["time_ms"] for p in front], [p[key] for p in front], where="post", color="black",
+                    lw=2.2, alpha=0.35, zorder=0, label="Pareto front" if ax is axes[0] else None)
+        ax.set_xscale("log")
+        ax.set_xlabel("time per frame [ms] (log)")
+        ax.set_ylabel(ylabel)
+        ax.grid(True, which="both", alpha=0.3)
+    fig.suptitle(title)
+    fig.legend(loc="center right", fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0, 0.8, 1))
+    path = Path(path)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png")
+    finally:
+        plt.close(fig)

@@ -34,16 +34,22 @@ def _name(p) -> str:
     return p["method"] if not knob else f"{p['method']} ({knob} = {p['value']})"
 
 
-def front_sentence(points, score_key: str = "ssim", score_label: str = "SSIM", digits: int = 3) -> str:
+def _ratio(r: float) -> str:
+    return f"{r:,.0f}x" if r >= 100 else f"{r:.3g}x"
+
+
+def front_sentence(points, score_key: str = "ssim", score_label: str = "SSIM", digits: int = 3,
+                   unit: str = "") -> str:
     """One sentence that says what the accuracy-vs-time plot of ``points`` shows: the front's two
-    ends, and which method holds how much of it (generated from the figures)."""
+    ends, and which method holds how much of it (generated from the figures); ``unit`` follows a
+    score difference (" dB" for PSNR)."""
     front = pareto_front(points, score_key=score_key)
     if not front:
         return f"No point has both a time and a {score_label}."
     first, last = points[front[0]], points[front[-1]]
 
     def at(p):
-        return f"{p['time_ms']:.3g} ms ({score_label} {p[score_key]:.{digits}f})"
+        return f"{p['time_ms']:.3g} ms ({score_label} {p[score_key]:.{digits}f}{unit})"
 
     if len(front) == 1:
         beaten = len([p for p in points if p.get(score_key) is not None]) - 1
@@ -55,5 +61,5 @@ def front_sentence(points, score_key: str = "ssim", score_label: str = "SSIM", d
     share = ", ".join(f"{m} {n}" for m, n in sorted(holders.items(), key=lambda kv: -kv[1]))
     gain = last[score_key] - first[score_key]
     return (f"The {score_label} front runs from {_name(first)} at {at(first)} to {_name(last)} at {at(last)}: "
-            f"{gain:+.{digits}f} {score_label} for {last['time_ms'] / first['time_ms']:.3g}x the time; "
+            f"{gain:+.{digits}f}{unit} {score_label} for {_ratio(last['time_ms'] / first['time_ms'])} the time; "
             f"of its {len(front)} points, {share}.")

@@ -53,11 +53,11 @@ def accuracy_time_plot(points, path, title: str) -> None:
             label = method if knob is None else f"{method} · {knob}"
             ax.plot(xs, ys, marker=marks[knob], color=colours[method], lw=1.2, ms=6, alpha=0.9,
                     label=label if ax is axes[0] else None)
-            for i in idx:
+            for n, i in enumerate(idx):
                 p = usable[i]
-                if knob is not None:
+                if knob is not None:   # labels alternate above and below, so close points stay legible
                     ax.annotate(str(p["value"]), (p["time_ms"], p[key]), textcoords="offset points",
-                                xytext=(4, 3), fontsize=7, color=colours[method])
+                                xytext=(5, 5 if n % 2 == 0 else -11), fontsize=7.5, color=colours[method])
                 if knob is None or p.get("base"):
                     ax.plot(p["time_ms"], p[key], marker="o", ms=11, mfc="none", mec="black", mew=0.8)
         front = [usable[i] for i in pareto_front(usable, score_key=key)]

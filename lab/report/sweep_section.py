@@ -10,8 +10,7 @@ PLOT = "sweep_accuracy_vs_time.png"
 
 
 def _sentences(points) -> dict:
-    return {key: front_sentence(points, key, "SSIM" if key == "ssim" else "PSNR", 3 if key == "ssim" else 2)
-            for key, _ in SCORES}
+    return {"ssim": front_sentence(points, "ssim", "SSIM", 3), "psnr": front_sentence(points, "psnr", "PSNR", 2, " dB")}
 
 
 def add_sweep(report: dict, scene, plan, image, reference, reference_b, databases, knobs, out_dir,

@@ -46,6 +46,8 @@ class Knob:
         ``applies(pass_class) -> bool`` for ``pass`` knobs; default: :func:`pass_accepts`.
     scale_with : tuple of str
         ``psf`` knobs: further settings scaled by the same factor (value / base) when present.
+    why_not : str
+        ``pass`` knobs: the reason a pass it does not apply to is skipped (``{pass}``, ``{key}``).
     """
 
     name: str
@@ -55,6 +57,7 @@ class Knob:
     values: Callable
     applies: Callable | None = None
     scale_with: tuple = ()
+    why_not: str = "the {pass!r} pass takes no option {key!r}"
 
     def skip_reason(self, pass_cls, model_config=None) -> str | None:
         """Why this knob does not apply to a method of pass ``pass_cls`` rendering a database of
@@ -68,7 +71,7 @@ class Knob:
                 return f"its PSF model ({model_config.__name__}) has no setting {self.key!r}"
             return None
         accepts = self.applies or (lambda cls: pass_accepts(cls, self.key))
-        return None if accepts(pass_cls) else f"the {pass_cls.name!r} pass takes no option {self.key!r}"
+        return None if accepts(pass_cls) else self.why_not.format(**{"pass": pass_cls.name, "key": self.key})
 
 
 def pass_accepts(cls, option: str) -> bool:
@@ -124,8 +127,14 @@ register_knob(Knob("psf_samples", "psf", "samples", "PSF samples", _scaled((0.5,
 # A PSF's rays are max(rays_per_psf, rays_per_pixel * disc area): both scale, so every cell's count does.
 register_knob(Knob("rays_per_psf", "psf", "rays_per_psf", "rays per PSF", _scaled((0.25, 1.0, 4.0), integer=True),
                    scale_with=("rays_per_pixel",)))
-# The polygon pass's global depth layers (and any pass that renders layers, e.g. spreadlets once they do).
-register_knob(Knob("layers", "pass", "layers", "depth layers", lambda base: sorted({1, 2, 4, 8, int(base)})))
+# The polygon pass's global depth layers (and any pass that renders layers, e.g. spreadlets once they do);
+# a pass that traces its input's own layers takes their count as max_layers (the next knob), not this.
+register_knob(Knob("layers", "pass", "layers", "depth layers", lambda base: sorted({1, 2, 4, 8, int(base)}),
+                   applies=lambda cls: pass_accepts(cls, "layers") and not pass_accepts(cls, "max_layers"),
+                   why_not="the {pass!r} pass renders no depth layers of its own (option {key!r})"))
+# LES10: how many of the input's peeled layers the lens rays traverse (None, the default: all of them).
+register_knob(Knob("traced_layers", "pass", "max_layers", "input layers traced",
+                   lambda base: [1, 2, 4, 8] if base is None else sorted({1, 2, max(1, int(base) // 2), int(base)})))
 register_knob(Knob("lens_rays", "pass", "rays", "lens rays per pixel",
                    lambda base: sorted({max(1, int(base) // 8), max(1, int(base) // 2), int(base), 2 * int(base)})))
 register_knob(Knob("integrator", "pass", "integrator", "Poisson integrator", _integrators,

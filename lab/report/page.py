@@ -141,7 +141,7 @@ def _sweep_section(report: dict) -> str:
             "Pareto front; bold methods mark the report's own setting of the knob. Times are the runtime's "
             "contract (median <code>time_ms</code> of timed calls after a warm-up) except the path tracer's, "
             "the wall clock of its render.</p>"
-            + sortable(heads, rows, classes)
+            + sortable(heads, rows, classes, table_id="sweep-table")
             + (f"<details><summary>{len(sweep['skipped'])} knob(s) that do not apply, and why</summary>"
                f"<ul>{skipped}</ul></details>" if skipped else ""))
 

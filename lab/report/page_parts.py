@@ -31,6 +31,7 @@ tr.front td{background:#eef7ee}tr.base td:first-child{font-weight:600}
 .grid{display:flex;flex-wrap:wrap;gap:14px;margin-bottom:14px}.grid figure{margin:0;width:290px}
 .grid img{width:290px;image-rendering:pixelated;border:1px solid var(--line);background:#fff}
 .pair{display:flex;gap:8px;padding:8px;background:#fff;border:1px solid var(--line)}
+.pair figure,.pair img{width:276px}
 figcaption{font-size:.83em;color:var(--soft)}
 .strip{display:flex;gap:10px;flex-wrap:wrap;align-items:flex-start;margin-bottom:1em}
 .strip figure{margin:0}.strip img{width:200px;height:200px;image-rendering:pixelated;border:1px solid var(--line)}
@@ -87,14 +88,16 @@ def _cell(value, digits) -> str:
     return f"<td{cls}{sort_key}>{fmt(value, digits)}</td>"
 
 
-def sortable(headers, rows, row_classes=None, digits: int = 4, caption: str | None = None) -> str:
+def sortable(headers, rows, row_classes=None, digits: int = 4, caption: str | None = None,
+             table_id: str | None = None) -> str:
     """A table whose columns sort on a click (:data:`SORT_SCRIPT`); ``rows`` of plain values."""
     head = "".join(f"<th>{esc(h)}</th>" for h in headers)
     classes = row_classes or [""] * len(rows)
     body = "".join(f'<tr class="{c}">' + "".join(_cell(v, digits) for v in row) + "</tr>"
                    for row, c in zip(rows, classes))
     cap = f"<caption class='caption'>{esc(caption)}</caption>" if caption else ""
-    return f'<table class="sortable">{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+    ident = f' id="{esc(table_id)}"' if table_id else ""
+    return f'<table class="sortable"{ident}>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 
 
 def _flat(data, prefix="") -> list[tuple[str, object]]:

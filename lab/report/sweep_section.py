@@ -47,7 +47,8 @@ def describe_sweep(sweep: dict) -> str:
     for p in sweep["points"]:
         nc = p.get("noise_corrected_psnr")
         star = "*" if p["on_front"]["ssim"] else " "
-        lines.append(f"  {star} {p['method']:<12} {p['knob'] or 'as planned':<15} {str(p['value'] or ''):>9}  {p['time_ms']:10.2f} ms"
+        value = "" if p["value"] is None else str(p["value"])
+        lines.append(f"  {star} {p['method']:<12} {p['knob'] or 'as planned':<15} {value:>9}  {p['time_ms']:10.2f} ms"
                      f"   SSIM {p['ssim']:.4f}   PSNR {p['psnr']:.2f} dB"
                      + (f"   noise-corrected {nc:.2f} dB" if nc is not None else ""))
     for s in sweep["skipped"]:

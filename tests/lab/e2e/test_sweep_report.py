@@ -77,7 +77,7 @@ def test_the_page_in_headless_chromium(sweep_report, tmp_path):
         assert not check.broken, check.broken
         assert check["errors"] == []
         # a click on a header sorts its table: the sweep table by SSIM, ascending then descending
-        column = ("(() => { const t = document.querySelectorAll('table.sortable')[2];"
+        column = ("(() => { const t = document.getElementById('sweep-table');"
                   " const i = Array.from(t.tHead.rows[0].cells).findIndex(c => c.textContent.startsWith('SSIM'));"
                   " t.tHead.rows[0].cells[i].click();"
                   " return Array.from(t.tBodies[0].rows).map(r => parseFloat(r.cells[i].textContent)); })()")

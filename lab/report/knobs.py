@@ -43,11 +43,12 @@ class Knob:
     values : callable
         ``values(base) -> list``: the swept values from the run's own value ``base`` (include it).
     applies : callable, optional
-        ``applies(pass_class) -> bool`` for ``pass`` knobs; default: :func:`pass_accepts`.
+        ``applies(pass_class) -> bool``: for ``pass`` knobs instead of :func:`pass_accepts`; for
+        ``psf`` knobs on top of the model having the setting (a setting only some passes use).
     scale_with : tuple of str
         ``psf`` knobs: further settings scaled by the same factor (value / base) when present.
     why_not : str
-        ``pass`` knobs: the reason a pass it does not apply to is skipped (``{pass}``, ``{key}``).
+        The reason a pass that ``applies`` refuses is skipped (``{pass}``, ``{key}`` filled in).
     """
 
     name: str
@@ -69,7 +70,8 @@ class Knob:
                 return f"the {pass_cls.name!r} pass uses no PSF database"
             if self.key not in {f.name for f in dataclasses.fields(model_config)}:
                 return f"its PSF model ({model_config.__name__}) has no setting {self.key!r}"
-            return None
+            return None if self.applies is None or self.applies(pass_cls) else \
+                self.why_not.format(**{"pass": pass_cls.name, "key": self.key})
         accepts = self.applies or (lambda cls: pass_accepts(cls, self.key))
         return None if accepts(pass_cls) else self.why_not.format(**{"pass": pass_cls.name, "key": self.key})
 
@@ -121,8 +123,10 @@ def register_knob(knob: Knob) -> Knob:
 
 
 # LSR18's operating point: the sparsifier's spreadlet density (lab.sparsify.spreadlets.MASS / density).
+# Only a pass that draws the spreadlets (and integrates them) sees it; Splat and Filter draw the dense PSFs.
 register_knob(Knob("operating_point", "psf", "density", "spreadlet density (operating point)",
-                   _scaled((0.5, 1.0, 2.0), integer=False)))
+                   _scaled((0.5, 1.0, 2.0), integer=False), applies=lambda cls: bool(getattr(cls, "integrates", False)),
+                   why_not="the {pass!r} pass draws the dense PSFs, not spreadlets: their {key!r} is not used"))
 register_knob(Knob("psf_samples", "psf", "samples", "PSF samples", _scaled((0.5, 1.0, 2.0), integer=True)))
 # A PSF's rays are max(rays_per_psf, rays_per_pixel * disc area): both scale, so every cell's count does.
 register_knob(Knob("rays_per_psf", "psf", "rays_per_psf", "rays per PSF", _scaled((0.25, 1.0, 4.0), integer=True),

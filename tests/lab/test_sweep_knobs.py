@@ -25,6 +25,8 @@ def test_psf_knobs_need_a_database_with_the_setting():
     simple = get_model("simple_lens").Config
     assert KNOBS["operating_point"].skip_reason(get_pass("spreadlets"), simple) is None
     assert "uses no PSF database" in KNOBS["operating_point"].skip_reason(get_pass("polygon"), None)
+    assert "draws the dense PSFs" in KNOBS["operating_point"].skip_reason(get_pass("splat"), simple)
+    assert KNOBS["psf_samples"].skip_reason(get_pass("splat"), simple) is None   # dense PSFs have samples too
     motion = Knob("motion_range", "psf", "max_motion_px", "largest motion", lambda b: [b])
     assert "has no setting 'max_motion_px'" in motion.skip_reason(get_pass("spreadlets"), simple)
     assert motion.skip_reason(get_pass("spreadlets"), get_model("combined").Config) is None

@@ -12,6 +12,7 @@ from .pareto import pareto_front
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import LogFormatter  # noqa: E402
 
 __all__ = ["accuracy_time_plot", "SCORES"]
 
@@ -65,6 +66,8 @@ def accuracy_time_plot(points, path, title: str) -> None:
             ax.step([p["time_ms"] for p in front], [p[key] for p in front], where="post", color="black",
                     lw=2.2, alpha=0.35, zorder=0, label="Pareto front" if ax is axes[0] else None)
         ax.set_xscale("log")
+        for axis_set in (ax.xaxis.set_major_formatter, ax.xaxis.set_minor_formatter):   # "3", not "3 x 10^0"
+            axis_set(LogFormatter(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
         ax.set_xlabel("time per frame [ms] (log)")
         ax.set_ylabel(ylabel)
         ax.grid(True, which="both", alpha=0.3)

@@ -5,6 +5,7 @@ VPY     := $(VENV)/bin/python
 STAMP   := $(VENV)/.installed
 LLVM    := $(VENV)/.llvm-ok
 POCL    := $(VENV)/.pocl-ok
+CHROMIUM := $(VENV)/.chromium-ok
 # PoCL keeps compiled kernels here; Numba its compiled loops.
 export POCL_CACHE_DIR ?= $(CURDIR)/.cache/pocl
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.cache/numba
@@ -34,13 +35,22 @@ $(POCL): $(STAMP)
 	$(VPY) -m runtime_cl.device.pocl_cpu --patch
 	touch $@
 
+# The report-page test opens a report in Debian's headless Chromium (DevTools Protocol).
+$(CHROMIUM): $(STAMP)
+	@if ! command -v chromium >/dev/null 2>&1; then \
+	  echo "chromium not found: installing Debian's chromium for the report-page test"; \
+	  (apt-get install -y chromium || (apt-get update && apt-get install -y chromium)) >/dev/null; \
+	fi
+	chromium --version
+	touch $@
+
 demo: setup
 	$(VENV)/bin/splatlab demo
 
-test: setup
+test: setup $(CHROMIUM)
 	$(VPY) -m pytest -q
 
-test-slow: setup
+test-slow: setup $(CHROMIUM)
 	$(VPY) -m pytest -q -m slow
 
 # Each committed baseline (reports/baselines/<scene>/report.json, written by

@@ -199,6 +199,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--baseline", type=Path, help="report.json to check for regressions (exit 1 if any; one scene)")
     p.add_argument("--noise-floor", action="store_true", help="render a second reference with an independent "
                    "seed and report how far the two agree (the SSIM no method can beat)")
+    p.add_argument("--sweep", action="store_true", help="also run every method at each value of each knob that "
+                   "applies to it (operating point, PSF samples, rays per PSF, layers, lens rays, integrator, "
+                   "reference spp) and plot accuracy against time with the Pareto front; implies --noise-floor")
+    p.add_argument("--knobs", metavar="A,B", type=lambda s: s.split(","),
+                   help="with --sweep: only these knobs (default all; see lab/report/knobs.py)")
     _add_where(p, "the reference's render passes and the databases' PSFs")
 
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")

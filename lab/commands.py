@@ -215,10 +215,10 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False) -> tuple:
+def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False, sweep=None) -> tuple:
     from .pipeline import run_report
 
-    report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise)
+    report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise, sweep=sweep)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
         corrected = m.get("noise_corrected_psnr")
@@ -227,6 +227,10 @@ def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False) -
     floor = report["reference"].get("noise_floor")
     if floor:
         print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")
+    if "sweep" in report:
+        from .report.sweep_section import describe_sweep
+
+        print(describe_sweep(report["sweep"]))
     print(f"report: {out.resolve() / 'index.html'}\n        {out.resolve() / 'report.json'}")
     if report.get("regressions"):
         _say("regressions against the baseline:\n  " + "\n  ".join(report["regressions"]))
@@ -243,6 +247,13 @@ def cmd_report(args) -> int:
     from .pipeline import load_scene_and_plan
     from .report.table2 import write_summary
 
+    sweep, noise = None, args.noise_floor
+    if getattr(args, "sweep", False):
+        from .report.knobs import select_knobs
+
+        sweep, noise = select_knobs(args.knobs), True   # the sweep's points get noise-corrected PSNRs
+    elif getattr(args, "knobs", None) is not None:
+        raise UserError(f"--knobs {','.join(args.knobs)}: --knobs chooses what --sweep turns; add --sweep")
     names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
     if len(set(names)) < len(names):
         raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
@@ -250,11 +261,11 @@ def cmd_report(args) -> int:
         check_output_dir(args.out_dir or REPORTS / "table2")   # before hours of work
     with _executor(args) as executor:
         if len(scenes) == 1:
-            return _report(scenes[0], args.out_dir, args.baseline, executor, args.noise_floor)[0]
+            return _report(scenes[0], args.out_dir, args.baseline, executor, noise, sweep)[0]
         root = Path(args.out_dir) if args.out_dir else None
         codes, reports, dirs = [], [], []
         for path, name in zip(scenes, names):
-            code, report, out = _report(path, root / name if root else None, None, executor, args.noise_floor)
+            code, report, out = _report(path, root / name if root else None, None, executor, noise, sweep)
             codes.append(code), reports.append(report), dirs.append(out)
     page = write_summary(reports, dirs, root or REPORTS / "table2")
     print(f"LSR18 Table 2 over {len(reports)} scenes: {page.resolve()}")

@@ -135,18 +135,20 @@ def default_out_dir(scene: Scene) -> Path:
 
 
 def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
-               executor: Executor | None = None, noise: bool = False) -> dict:
+               executor: Executor | None = None, noise: bool = False, sweep=None) -> dict:
     """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict.
 
     ``executor`` (default: this process) runs the reference's passes and the databases' cells;
-    ``noise`` measures the reference's noise floor (see :func:`inputs_and_reference`).
+    ``noise`` measures the reference's noise floor (see :func:`inputs_and_reference`); ``sweep``
+    (a list of :class:`lab.report.knobs.Knob`) also measures accuracy against time knob by knob
+    (:mod:`lab.report.sweep`).
     """
     scene, plan = load_scene_and_plan(scene_path)
-    return report_scene(scene, plan, out_dir, baseline, progress, executor, noise)
+    return report_scene(scene, plan, out_dir, baseline, progress, executor, noise, sweep)
 
 
 def report_scene(scene: Scene, plan: Plan, out_dir=None, baseline=None, progress: bool = True,
-                 executor: Executor | None = None, noise: bool = False) -> dict:
+                 executor: Executor | None = None, noise: bool = False, sweep=None) -> dict:
     """:func:`run_report` on a loaded scene and its plan."""
     from .report.build import assemble_report
 
@@ -163,8 +165,13 @@ def report_scene(scene: Scene, plan: Plan, out_dir=None, baseline=None, progress
     from .runtime_passes import run_runtime
 
     results = run_runtime(plan, image, databases, progress=progress)
+    reference_b = ref_info.pop(SECOND_REFERENCE, None)
     report = assemble_report(scene, plan, image, reference, ref_info, databases, results, out_dir,
-                             baseline_report, reference_b=ref_info.pop(SECOND_REFERENCE, None))
+                             baseline_report, reference_b=reference_b)
+    if sweep is not None:
+        from .report.sweep_section import add_sweep
+
+        add_sweep(report, scene, plan, image, reference, reference_b, databases, sweep, out_dir, executor, progress)
     report["settings"]["job_seconds"] = round(time.perf_counter() - t0, 2)
     report["created"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
     from .report.html import write_report

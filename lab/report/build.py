@@ -11,7 +11,9 @@ from runtime_cl.timing import COLUMNS
 from .images import save_heatmap, save_render
 from .machine import machine_info
 from .metrics import TONEMAP, error_map, noise_corrected_mse, psnr, ssim
-from .plots import accuracy_vs_time
+from .insets import write_insets
+from .pareto import front_sentence
+from .sweep_plots import accuracy_time_plot
 from .regress import compare
 
 ERROR_SCALE = 4.0  # error maps show 4 x |difference| so small errors are visible
@@ -50,9 +52,10 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
     out_dir.mkdir(parents=True, exist_ok=True)
     save_render(reference, out_dir / "reference.png")
     save_render(image.rgb, out_dir / "input.png")
-    methods = {}
+    methods, rgbs = {}, {}
     for name, (rendered, timing) in results.items():
         rgb = rendered[..., :3] if rendered.shape[2] >= 3 else np.repeat(rendered, 3, axis=2)
+        rgbs[name] = rgb
         save_render(rgb, out_dir / f"{name}.png")
         save_heatmap(error_map(rgb, reference) * ERROR_SCALE, out_dir / f"{name}_error.png", vmax=1.0)
         methods[name] = dict(timing, ssim=ssim(rgb, reference), psnr=psnr(rgb, reference),
@@ -63,8 +66,11 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
                                  noise_corrected_psnr=float(-10.0 * np.log10(mse)) if mse > 0 else None)
     plots = {}
     if len(methods) > 1:
-        accuracy_vs_time(methods, out_dir / "accuracy_vs_time.png")
-        plots["SSIM vs time"] = "accuracy_vs_time.png"
+        points = [dict(m, method=name) for name, m in methods.items()]
+        accuracy_time_plot(points, out_dir / "accuracy_vs_time.png", f"{scene.name}: accuracy vs time, per method")
+        plots["accuracy vs time"] = {"image": "accuracy_vs_time.png",
+                                     "sentences": [front_sentence(points, "ssim", "SSIM", 3),
+                                                   front_sentence(points, "psnr", "PSNR", 2, " dB")]}
     reference_method = timing_reference(methods)
     if reference_method is not None:
         ref_ms = methods[reference_method]["time_ms"]
@@ -83,6 +89,7 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
         "timing": dict(COLUMNS, runs="timed calls after one warm-up call; every figure is their median"),
         "images": {"reference": "reference.png", "input (pinhole)": "input.png"},
         "plots": plots,
+        "insets": write_insets(reference, rgbs, out_dir) if rgbs else None,
         "methods": methods,
         "timing_reference": reference_method,
         "database": {name: _database_summary(r) for name, r in databases.items()},

@@ -274,3 +274,11 @@ def test_a_bad_psf_setting_fails_before_any_render(work, capfd, command):
     path = scene(work, "[psf.simple_lens]", "[psf.simple_lens]\nmax_coc_px = -3")
     fails_cleanly([command, path], capfd, work, "[psf.simple_lens]: max_coc_px = -3.0: must be a finite number > 0")
     assert not (work / "cache").exists()
+
+
+def test_report_knobs_unknown_or_without_sweep(work, capfd):
+    path = scene(work, "seed = 7", "seed = 8")
+    fails_cleanly(["report", path, "--sweep", "--knobs", "lens_rays,nope"], capfd, work, "--knobs", "nope",
+                  "operating_point")
+    fails_cleanly(["report", path, "--knobs", "lens_rays"], capfd, work, "--knobs", "add --sweep")
+    assert not (work / "cache").exists()   # refused before any render

@@ -157,10 +157,16 @@ class ThinCamera(Camera):
             "runtime_passes": ("spreadlets", "splat", "filter"),
             "skipped": (),
         }
+        rule["pass_runs"] = {}
+        if r.depth_layers is not None:  # LSR18 6.2: the spreadlet passes in global depth layers too
+            labels = tuple(f"{name}_layers" for name in rule["runtime_passes"])
+            rule["runtime_passes"] += labels
+            rule["pass_runs"].update({label: (name, {"layers": r.depth_layers})
+                                      for label, name in zip(labels, ("spreadlets", "splat", "filter"))})
         if r.peel_layers is not None:   # LES10: lens rays through the umbra-peeled layers of the input
             rays = r.lens_rays or LENS_RAYS
             rule["runtime_passes"] += ("layered",)
-            rule["pass_runs"] = {"layered": ("layered", {"rays": rays, "layered_input": True})}
+            rule["pass_runs"]["layered"] = ("layered", {"rays": rays, "layered_input": True})
         return rule
 
     def _dof(self) -> str:

@@ -136,7 +136,7 @@ def make_plan(scene) -> Plan:
                                             "the [[shapes]] layer keys, untagged shapes and sky last"),)
         runs = rule.get("pass_runs", {})
         if not any(runs.get(p, (p, {}))[1].get("layered_input") for p in rule["runtime_passes"]):
-            skipped.append(Step("layered input in the runtime", "only the polygon passes read layers"))
+            skipped.append(Step("layered input in the runtime", "no pass of this plan reads the input's layers"))
     return Plan(scene=scene.name, source=scene.source, resolution=scene.info.resolution,
                 effects=effects, psf_models=rule["psf_models"], references=rule["references"],
                 inputs=inputs, runtime_passes=rule["runtime_passes"], skipped=tuple(skipped),

@@ -274,3 +274,23 @@ def test_a_bad_psf_setting_fails_before_any_render(work, capfd, command):
     path = scene(work, "[psf.simple_lens]", "[psf.simple_lens]\nmax_coc_px = -3")
     fails_cleanly([command, path], capfd, work, "[psf.simple_lens]: max_coc_px = -3.0: must be a finite number > 0")
     assert not (work / "cache").exists()
+
+
+@pytest.mark.parametrize("method", ["spreadlets", "splat", "filter"])
+def test_spreadlet_layers_zero(work, capfd, method):
+    fails_cleanly(["render", work / "in.exr", "--db", work / "db.spdb", "--method", method, "--layers", "0",
+                   "--out", work / "o.exr"], capfd, work, "--layers 0", ">= 1")
+
+
+def test_bad_guard_band_header(work, capfd):
+    path = exr_with(work, {"splatlab.guard_px": "6"})
+    fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capfd, work,
+                  "bad.exr", "splatlab.guard_px = '6'", "narrower than half")
+
+
+@pytest.mark.parametrize("new, needles", [
+    ("seed = 7\nguard_band = 3", ["guard_band = 3", "true or false"]),
+    ("seed = 7\ndepth_layers = 0", ["depth_layers = 0", "between 1 and 16"]),
+])
+def test_layer_and_guard_scene_keys(work, capfd, new, needles):
+    fails_cleanly(["plan", scene(work, "seed = 7", new)], capfd, work, "s.toml", *needles)

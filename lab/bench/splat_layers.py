@@ -1,7 +1,8 @@
 """``splatlab bench splat_layers``: depth layers of the spreadlet passes on a scene (LSR18 6.2).
 
 On the scene's input (default the demo) and its reference, spreadlets and LSR18's Splat render
-with 1, 2 and 4 global depth layers, without and with the guard band (the input rendered with a
+with 1, 2 and 4 global depth layers (and spreadlets from the input's own ``layerN.*`` layers
+when it has them, e.g. ``scenes/foreground.toml``'s peeled ones), without and with the guard band (the input rendered with a
 margin and cropped, :mod:`lab.reference.guard_band`), each timed by the runtime's contract
 (:mod:`runtime_cl.timing`) and scored (SSIM, PSNR) against the reference; the reference's own
 noise floor (a second reference with an independent seed) is stated beside them. Figures: the
@@ -54,6 +55,15 @@ def bench_splat_layers(scene_path, repeats: int, layers=LAYERS, methods=METHODS,
                                              psnr=psnr(rgb, reference))
                 save_render(rgb, pictures / f"{method}_{n}_{'guard' if guard else 'frame'}.png")
         save_render(reference, pictures / "reference.png")
+        if image.layers():   # a layered input (peeled or [[shapes]] layer keys): spreadlets from its layers
+            frame = frame_of(image, db=db, layered_input=True)
+            for n in layers:
+                rendered, timing = run_pass(methods[0], frame, camera, db, runs=repeats, layers=n,
+                                            soft_layers=soft, layered_input=True)
+                rgb = rendered[..., :3]
+                runs[f"{methods[0]}_{n}_layered_input"] = dict(timing.to_json(), ssim=ssim(rgb, reference),
+                                                               psnr=psnr(rgb, reference))
+                save_render(rgb, pictures / f"{methods[0]}_{n}_layered_input_{'guard' if guard else 'frame'}.png")
         ratios = {}
         for n in layers:
             for method in methods:

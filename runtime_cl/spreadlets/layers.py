@@ -2,9 +2,11 @@
 
 :func:`runtime_cl.layers.composite.render_layers` bins the pixels into global layers and
 composites them; this splats one layer with a :class:`~runtime_cl.spreadlets.renderer.Renderer`
-method (spreadlets, Splat or Filter): the layer's premultiplied radiance as one image and its
-opacity (coverage) as another, each splatted and integrated with every pixel's own database PSF
+method (spreadlets, Splat or Filter): the layer's premultiplied radiance and its opacity
+(coverage) as one 4-channel image, splatted and integrated with every pixel's own database PSF
 (the coordinates and angle its input layer's depth gives), so colour and opacity spread alike.
+The opacity rides in the 4th lane of the kernels' float4 pixels, which RGB leaves empty: it adds
+no splatting work, only a fourth channel to merge, download and integrate.
 
 The uniform blurs of the re-weighting (the hidden coverage in front of a layer, the layer's own
 sites) use the exact 16-gon of the built-in ``hexadecagon`` at the layer's mean CoC radius
@@ -54,24 +56,19 @@ class SpreadletLayerSplatter:
 
     def splat_layer(self, images: list, cocs: list, sources: list) -> tuple:
         h, w, c1 = images[0].shape
-        c = c1 - 1
+        if c1 != 4:
+            raise InputError(f"images: {c1 - 1} colour channel(s); the spreadlet layers draw RGB and "
+                             "opacity as one 4-channel image (give the layers RGB radiance)")
         out = np.zeros((h, w, c1), np.float32)
         times = {"device_ms": 0.0, "transfer_ms": 0.0}
         for image, source in zip(images, sources):
             if source >= len(self.coords):
                 raise InputError(f"sources: input layer {source}, but coordinates were given for "
                                  f"{len(self.coords)} layer(s)")
-            # colour and opacity: two renders (the kernels take 1 or 3 channels)
-            for lo, hi in ((0, c), (c, c1)):
-                part = np.ascontiguousarray(image[..., lo:hi])
-                if not part.any():
-                    continue                     # nothing to splat (e.g. a layer of pure light)
-                rendered, t = self._render(part, source)
-                # a 3-channel database draws each channel with its own PSF; opacity takes their mean
-                out[..., lo:hi] += rendered if hi - lo == rendered.shape[2] else \
-                    rendered.mean(axis=2, keepdims=True)
-                times["device_ms"] += t["device_ms"]
-                times["transfer_ms"] += t["transfer_ms"]
+            rendered, t = self._render(image, source)
+            out += rendered
+            times["device_ms"] += t["device_ms"]
+            times["transfer_ms"] += t["transfer_ms"]
         return out, times
 
     def blur(self, image, radius_px: float) -> tuple:

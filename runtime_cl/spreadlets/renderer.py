@@ -95,7 +95,9 @@ class Renderer:
         Parameters
         ----------
         colour : array_like, float32, (H, W, C)
-            Linear radiance, C = 1 or 3; zero pixels splat nothing.
+            Linear radiance, C = 1 or 3; zero pixels splat nothing. C = 4: radiance and opacity
+            (premultiplied RGB, A) of a depth layer, the opacity drawn with the same PSFs (a
+            3-channel database's green one).
         coords : array_like, float32, (H, W, ns)
             PSF coordinates per pixel (for ``simple_lens``: |CoC radius| in pixels; every model's
             map is in :mod:`runtime_cl.coords.maps`), inside the database's ranges.
@@ -132,8 +134,9 @@ class Renderer:
         colour = as_f32(colour, "colour", 3)
         coords = as_f32(coords, "coords", 3)
         h, w, ch = colour.shape
-        if ch not in (1, 3):
-            raise InputError(f"colour: {ch} channels, need 1 or 3 (shape (H, W, C))")
+        if ch not in (1, 3, 4):
+            raise InputError(f"colour: {ch} channels, need 1 or 3 (shape (H, W, C)), or 4: a depth "
+                             "layer's radiance and opacity (runtime_cl.spreadlets.layers)")
         if coords.shape[:2] != (h, w):
             raise InputError(f"coords: shape {coords.shape} does not match colour {colour.shape}; "
                              "need one set of PSF coordinates per pixel")

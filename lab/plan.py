@@ -120,7 +120,9 @@ def make_plan(scene) -> Plan:
                                                              "this camera"))
     inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
                                        "centres, camera in the EXR header"
-                   + (", at mid-shutter with motion.X, motion.Y (open -> close)" if moves else "")),)
+                   + (", at mid-shutter with motion.X, motion.Y (open -> close)" if moves else "")
+                   + (", with a guard band of the largest |CoC| + half the largest motion around the frame "
+                      "(LSR18 Boundary; the runtime crops it)" if r.guard_band else "")),)
     if r.peel_layers is not None:
         inputs += (Step("peeled_layers", f"layer0..{r.peel_layers - 1}.R,G,B,A,Z ({r.input_spp} spp): LES10's "
                                          "depth peeling from the lens centre past the umbra offset"),)

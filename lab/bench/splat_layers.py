@@ -19,10 +19,12 @@ from lab.bench import output
 __all__ = ["bench_splat_layers"]
 
 LAYERS = (1, 2, 4)
+SOFT = 0.5   # the soft-layering width also measured (spreadlets, more than one layer)
 METHODS = ("spreadlets", "splat")
 
 
-def bench_splat_layers(scene_path, repeats: int, layers=LAYERS, methods=METHODS, soft: float = 0.0) -> Path:
+def bench_splat_layers(scene_path, repeats: int, layers=LAYERS, methods=METHODS, soft: float = 0.0,
+                       soft_variant: float = SOFT) -> Path:
     """See the module docstring; returns the JSON file written."""
     from lab.paths import cache_root
     from lab.pipeline import build_databases, inputs_and_reference, load_scene_and_plan
@@ -54,6 +56,11 @@ def bench_splat_layers(scene_path, repeats: int, layers=LAYERS, methods=METHODS,
                 runs[f"{method}_{n}"] = dict(timing.to_json(), ssim=ssim(rgb, reference),
                                              psnr=psnr(rgb, reference))
                 save_render(rgb, pictures / f"{method}_{n}_{'guard' if guard else 'frame'}.png")
+            if n > 1 and soft_variant:
+                rendered, timing = run_pass(methods[0], frame, camera, db, runs=repeats, layers=n,
+                                            soft_layers=soft_variant)
+                runs[f"{methods[0]}_{n}_soft{soft_variant:g}"] = dict(
+                    timing.to_json(), ssim=ssim(rendered[..., :3], reference), psnr=psnr(rendered[..., :3], reference))
         save_render(reference, pictures / "reference.png")
         if image.layers():   # a layered input (peeled or [[shapes]] layer keys): spreadlets from its layers
             frame = frame_of(image, db=db, layered_input=True)
@@ -74,7 +81,7 @@ def bench_splat_layers(scene_path, repeats: int, layers=LAYERS, methods=METHODS,
                                                         / runs[f"spreadlets_{n}"]["time_ms"])
         out["guard" if guard else "frame"] = {"guard_px": image.guard_px, "runs": runs, "ratios": ratios}
     data = {"scene": str(scene_path), "resolution": list(scene.info.resolution), "repeats": repeats,
-            "soft_layers": soft, "reference_spp": scene.render.reference_spp, "noise_floor": floor,
+            "soft_layers": soft, "soft_variant": soft_variant, "reference_spp": scene.render.reference_spp, "noise_floor": floor,
             **out,
             "targets": {"spreadlets_n_over_nx1": "< 1 (LSR18: layering shifts the work around)",
                         "splat_over_spreadlets_n": ">= 10", "spreadlets time_ms": "<= 400 at 1024^2",

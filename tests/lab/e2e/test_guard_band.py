@@ -12,6 +12,10 @@ import pytest
 
 from lab.paths import SCENES
 
+# Mitsuba renders of a 48x48 scene (input with and without the band, a 2048-spp reference) and a
+# database: ~30 s, so out of the default suite (`make test-slow`)
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def renders(tmp_path_factory):

@@ -52,7 +52,7 @@ class Frame:
                              "(motion.X, motion.Y in pixels, Y up)")
         object.__setattr__(self, "layers", tuple(self.layers))
         g = self.guard_px
-        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0 or 2 * g >= min(h, w):
+        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0 or (g and 2 * g >= min(h, w)):
             raise InputError(f"guard_px = {g!r}: the guard band must be an integer >= 0 narrower than half "
                              f"the image ({h}x{w} pixels, frame and band), or 0 for no band")
 

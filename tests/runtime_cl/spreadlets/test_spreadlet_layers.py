@@ -204,3 +204,19 @@ def test_four_channels_are_radiance_and_opacity(db_channels, rotate):
         # same terms per lane; float32 sums in another grouping (vector widths) differ by rounding
         np.testing.assert_allclose(got[..., :3], rgb, rtol=1e-5, atol=1e-6)
         np.testing.assert_allclose(got[..., 3], alpha[..., 1 if db_channels == 3 else 0], rtol=1e-5, atol=1e-6)
+
+
+def test_guard_band_is_rendered_and_cropped(renderer):
+    """run_pass renders the whole guarded frame and returns the frame: the crop of the same render."""
+    from runtime_cl.passes import run_pass
+
+    camera = ThinLens(focal_length_mm=50.0, f_number=1.4, focus_distance_m=1.0, sensor_width_mm=3.6)
+    rng = np.random.default_rng(8)
+    rgb, depth = rng.random((20, 26, 3)).astype(np.float32), rng.uniform(1.0, 2.0, (20, 26)).astype(np.float32)
+    whole, _ = run_pass("spreadlets", Frame(rgb, depth), camera, renderer.db, layers=2)
+    framed, _ = run_pass("spreadlets", Frame(rgb, depth, guard_px=4), camera, renderer.db, layers=2)
+    assert framed.shape == (12, 18, 3)
+    np.testing.assert_array_equal(framed, whole[4:16, 4:22])
+    for bad in (-1, 10, True, 2.0):
+        with pytest.raises(InputError, match="guard_px"):
+            Frame(rgb, depth, guard_px=bad)

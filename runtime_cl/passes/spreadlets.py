@@ -56,8 +56,10 @@ class SpreadletPass(RuntimePass):
         if integrator != DEFAULT_INTEGRATOR and not self.integrates:
             raise InputError(f"integrator = {integrator!r}: the {self.name!r} pass integrates no Laplacian; "
                              f"the integrator is an option of {integrating_passes()}")
+        layered = self.layers > 1 or bool(layered_input)   # layers: integrate where each one lies
         self.renderer = Renderer(self.db, self.device, tile=tile, run_max=run_max,
-                                 spreadlet_rotation=spreadlet_rotation, integrator=integrator)
+                                 spreadlet_rotation=spreadlet_rotation, integrator=integrator,
+                                 crop_integration=layered)
         self.far = None if far_field is None else FarField(far_field, near=self.db)
         self.layered_input = bool(layered_input)
         self.soft_layers = soft_layers

@@ -22,6 +22,7 @@ from runtime_cl.psf.upload import DeviceDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.spreadlets.gather import GatherFilter
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
+from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
 from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter
 
@@ -49,11 +50,14 @@ class Renderer:
         How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
         (:func:`runtime_cl.integrate.integrator_names`; default ``"exact"``, the float64 FFT;
         ``"fft32"``, ``"pyramid"``).
+    crop_integration : bool
+        Integrate only the rectangle the splats reach when it is much smaller than the canvas
+        (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.
     """
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
                  run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
-                 integrator: str = DEFAULT_INTEGRATOR):
+                 integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False):
         integrator_class = get_integrator(integrator)   # an unknown name fails before any upload
         if spreadlet_rotation not in SPREADLET_ROTATIONS:
             raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
@@ -65,6 +69,7 @@ class Renderer:
         self.run_max = run_max
         self.spreadlet_rotation = spreadlet_rotation
         self.integrator = integrator_class(self.device)
+        self.crop_integration = bool(crop_integration)
         self._wrappers: dict = {}
 
     def _wrapper(self, method: str, channels: int, rotate: bool):
@@ -201,7 +206,7 @@ class _Spreadlets:
         p, lap = out.pad, out.canvas[0]
         # an all-zero Laplacian integrates to zero; skip the integration when nothing was splat
         if out.spreadlets:
-            full, times = r.integrator(lap)
+            full, times = integrate_support(r.integrator, lap) if r.crop_integration else r.integrator(lap)
             image = full[p:p + h, p:p + w]
         else:
             image, times = np.zeros((h, w, lap.shape[-1]), np.float32), {"device_ms": 0.0, "transfer_ms": 0.0}

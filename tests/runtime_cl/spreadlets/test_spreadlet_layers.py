@@ -120,7 +120,8 @@ def test_layered_input_matches_numpy(renderer, method, n, soft):
         out = one(db, image.astype(np.float32), coords)
         return out if out.shape[2] == image.shape[2] else out[..., :1]
 
-    got, info = render_layers(SpreadletLayerSplatter(renderer, method, coords_of(layers)), layers, n, soft=soft)
+    cropping = Renderer(db, crop_integration=True)            # as the passes render layers
+    got, info = render_layers(SpreadletLayerSplatter(cropping, method, coords_of(layers)), layers, n, soft=soft)
     want = reference(layers, n, spread, soft)
     # float32 splats and integration (spreadlets: an FFT Poisson solve) against float64
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5 * want.max())
@@ -220,3 +221,24 @@ def test_guard_band_is_rendered_and_cropped(renderer):
     for bad in (-1, 10, True, 2.0):
         with pytest.raises(InputError, match="guard_px"):
             Frame(rgb, depth, guard_px=bad)
+
+
+def test_integration_on_the_splats_support_is_the_full_solve():
+    """A Laplacian canvas whose image lives in a corner: solved on its support rectangle, the same
+    image as the full canvas's solve to float32 rounding; a frame-filling one keeps its canvas."""
+    from runtime_cl.integrate import get_integrator
+    from runtime_cl.integrate.crop import integrate_support
+    from runtime_cl.integrate.poisson import laplacian5
+
+    exact = get_integrator("exact")(None)
+    rng = np.random.default_rng(4)
+    image = np.zeros((90, 120, 4))
+    image[10:30, 60:95] = rng.random((20, 35, 4))               # zero on a ring around it
+    lap = laplacian5(image).astype(np.float32)
+    full, _ = exact(lap)
+    cropped, _ = integrate_support(exact, lap)
+    np.testing.assert_allclose(cropped, image, rtol=0, atol=1e-5)   # float32 Laplacian, float64 solve
+    np.testing.assert_allclose(cropped, full, rtol=0, atol=1e-5)
+    image[2:88, 2:118] = rng.random((86, 116, 4))
+    lap = laplacian5(image).astype(np.float32)
+    assert np.array_equal(integrate_support(exact, lap)[0], exact(lap)[0])

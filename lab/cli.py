@@ -176,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="polygon: built-in shape (hexagon, octagon, dodecagon, hexadecagon, heart, "
                         "clover, star; default: the camera header's iris, else hexagon)")
     p.add_argument("--layers", type=int, metavar="N",
-                   help="polygon: occlusion with N global depth layers (LSR18), from the EXR's "
+                   help="polygon, spreadlets, splat, filter: occlusion with N global depth layers (LSR18), from the EXR's "
                         "layerN.* channels when it has them, else from its flat image; layered: trace "
                         "only the nearest N of the EXR's layers")
     p.add_argument("--rays", type=_int_or_text, metavar="N",
@@ -219,7 +219,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "rotation, spreadlets with a constant and a per-pixel angle over without (512^2; "
                         "not part of all); layered: lens rays through the peeled layers of --scene (default "
                         "scenes/foreground.toml) for 8..256 rays and 1..L layers against Mitsuba; layer_cost: layers 5-8 "
-                        "against 1-4 of the layered pass on an 8-layer numpy scene (neither part of all); "
+                        "against 1-4 of the layered pass on an 8-layer numpy scene (neither part of all); splat_layers: "
+                        "spreadlets and Splat with 1, 2, 4 depth layers, with and without the guard band, "
+                        "times, cost of layers, SSIM/PSNR and the reference's noise floor (not part of all); "
                         "integrate: the Poisson integrators (exact, fft32, pyramid) at 1024^2 and 4096^2, errors "
                         "against the exact solve and time ratios (not part of all); "
                         "all: precompute and runtime")

@@ -34,6 +34,7 @@ from .errors import UserError
 
 CAMERA_ATTR = "splatlab.camera"
 FORMAT_ATTR = "splatlab.format"
+GUARD_ATTR = "splatlab.guard_px"   # guard band (LSR18 "Boundary"): margin around the frame, pixels
 FORMAT = "labelled-pixels/1"
 CORE = ("R", "G", "B", "A", "Z")
 EXR_MAGIC = b"\x76\x2f\x31\x01"
@@ -57,6 +58,9 @@ class LabelledImage:
         The ``splatlab.camera`` JSON object, e.g. ``{"lens": "thin", "focal_length_mm": 50, ...}``.
     extra : dict of str -> (H, W) float32
         Further channels by their EXR names.
+    guard_px : int
+        Guard band: the pixels are the frame plus this margin on every side (header
+        ``splatlab.guard_px``; the camera header describes the whole, widened sensor). Default 0.
     """
 
     rgb: np.ndarray
@@ -64,6 +68,12 @@ class LabelledImage:
     depth: np.ndarray
     camera: dict
     extra: dict = field(default_factory=dict)
+    guard_px: int = 0
+
+    def frame_crop(self, image: np.ndarray) -> np.ndarray:
+        """``image`` (H, W, ...) of these pixels without the guard band."""
+        g = self.guard_px
+        return image if g == 0 else image[g:image.shape[0] - g, g:image.shape[1] - g]
 
     def __post_init__(self):
         h, w = self.depth.shape
@@ -212,6 +222,8 @@ def write_labelled(path, image: LabelledImage):
     channels = {"R": image.rgb[..., 0], "G": image.rgb[..., 1], "B": image.rgb[..., 2],
                 "A": image.alpha, "Z": image.depth, **image.extra}
     header = {CAMERA_ATTR: json.dumps(image.camera, sort_keys=True), FORMAT_ATTR: FORMAT}
+    if image.guard_px:
+        header[GUARD_ATTR] = str(int(image.guard_px))
     _atomic_write(path, header, channels)
 
 
@@ -369,4 +381,18 @@ def read_labelled(path, camera: dict | None = None) -> LabelledImage:
     alpha = channels.get("A", np.ones_like(z))
     extra = {k: v for k, v in channels.items() if k not in CORE}
     image_layers(extra, str(path))
-    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=camera, extra=extra)
+    return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=camera, extra=extra,
+                         guard_px=_guard(path, header, z.shape))
+
+
+def _guard(path, header: dict, shape: tuple) -> int:
+    """The ``splatlab.guard_px`` header: 0 when absent, else a margin narrower than half the image."""
+    raw = header.get(GUARD_ATTR)
+    if raw is None:
+        return 0
+    text = raw if isinstance(raw, str) else None
+    if text is None or not text.isdigit() or not 2 * int(text) < min(shape):
+        shown = repr(text) if text is not None else f"an attribute of type {type(raw).__name__}"
+        raise UserError(f"{path}: header {GUARD_ATTR} = {shown}; the guard band is a whole number of pixels "
+                        f"narrower than half the image ({shape[0]}x{shape[1]}): re-render the input or drop it")
+    return int(text)

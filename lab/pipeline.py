@@ -35,6 +35,10 @@ def render_key(scene: Scene, packages=None) -> str:
     data = scene.to_dict()
     data.pop("psf", None)
     data.pop("precompute", None)
+    # the runtime's depth layers render nothing; the guard band changes the input only, whose
+    # file name says so (:func:`inputs_and_reference`), so both share one reference
+    for key in ("depth_layers", "guard_band"):
+        data["render"].pop(key, None)
     key = json.dumps({"scene": data, "code": code_digest(RENDER_ROOTS, packages)}, sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
@@ -61,7 +65,8 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
     folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"   # made by the first write
     remove_stale_temps(folder)
     info = {"cache": str(folder)}
-    input_path, ref_path = folder / "input.exr", folder / "reference.exr"
+    input_path = folder / ("input_guard.exr" if scene.render.guard_band else "input.exr")
+    ref_path = folder / "reference.exr"
     if input_path.exists():
         image = read_labelled(input_path)
         info["input_s"] = "cached"

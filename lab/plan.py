@@ -120,7 +120,9 @@ def make_plan(scene) -> Plan:
                                                              "this camera"))
     inputs = (Step("pinhole_labelled", f"pinhole R,G,B ({r.input_spp} spp), A, planar Z at pixel "
                                        "centres, camera in the EXR header"
-                   + (", at mid-shutter with motion.X, motion.Y (open -> close)" if moves else "")),)
+                   + (", at mid-shutter with motion.X, motion.Y (open -> close)" if moves else "")
+                   + (", with a guard band of the largest |CoC| + half the largest motion around the frame "
+                      "(LSR18 Boundary; the runtime crops it)" if r.guard_band else "")),)
     if r.peel_layers is not None:
         inputs += (Step("peeled_layers", f"layer0..{r.peel_layers - 1}.R,G,B,A,Z (layer 0: the input; behind it "
                                          f"{r.peel_spp or r.input_spp} spp): LES10's "
@@ -137,7 +139,7 @@ def make_plan(scene) -> Plan:
                                             "the [[shapes]] layer keys, untagged shapes and sky last"),)
         runs = rule.get("pass_runs", {})
         if not any(runs.get(p, (p, {}))[1].get("layered_input") for p in rule["runtime_passes"]):
-            skipped.append(Step("layered input in the runtime", "only the polygon passes read layers"))
+            skipped.append(Step("layered input in the runtime", "no pass of this plan reads the input's layers"))
     return Plan(scene=scene.name, source=scene.source, resolution=scene.info.resolution,
                 effects=effects, psf_models=rule["psf_models"], references=rule["references"],
                 inputs=inputs, runtime_passes=rule["runtime_passes"], skipped=tuple(skipped),

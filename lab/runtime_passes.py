@@ -44,7 +44,8 @@ def frame_of(image, source: str = "input", db=None, layered_input: bool = False)
             raise UserError(f"{source}: the input has no layerN.* channels; render it with layers (a scene "
                             "whose [[shapes]] have a layer key) or splat the flat image")
         layers = tuple(Frame(x.rgb, x.depth, alpha=x.alpha) for x in found)
-    return Frame(image.rgb, image.depth, alpha=image.alpha, motion=motion, layers=layers)
+    return Frame(image.rgb, image.depth, alpha=image.alpha, motion=motion, layers=layers,
+                 guard_px=image.guard_px)
 
 
 def camera_aperture(image, source: str = "input camera header", directions_m: int = 2, edges=None):

@@ -72,6 +72,11 @@ class RenderSettings:
     ``input_spp``): samples per pixel of the peeled layers behind the first; the first layer is the
     pinhole input itself (``input_spp``), where in-focus grain shows, while what lies behind it is
     mostly seen through blur, which averages its grain away.
+
+    ``guard_band`` (default false): render the labelled input with a margin of the largest CoC
+    plus half the largest motion around the frame (LSR18 "Boundary"; :mod:`lab.reference.guard_band`).
+    ``depth_layers`` (optional): the thin camera's plan adds the spreadlet passes with this many
+    global depth layers (labels ``spreadlets_layers``, ...; the passes' option ``layers``).
     """
 
     reference_spp: int = 256
@@ -81,12 +86,17 @@ class RenderSettings:
     peel_layers: int | None = None
     lens_rays: int | None = None
     peel_spp: int | None = None
+    guard_band: bool = False
+    depth_layers: int | None = None
 
     def __post_init__(self):
         for key in ("reference_spp", "input_spp", "max_depth"):
             if getattr(self, key) < 1:
                 raise UserError(f"{key} = {getattr(self, key)} must be >= 1")
-        for key, bound in (("peel_layers", 64), ("lens_rays", 4096),   # LES10 needed <= 10 layers
+        if not isinstance(self.guard_band, bool):
+            raise UserError(f"guard_band = {self.guard_band!r} must be true or false")
+        # LES10 needed <= 10 layers; LSR18 uses a handful of depth layers
+        for key, bound in (("peel_layers", 64), ("lens_rays", 4096), ("depth_layers", 16),
                            ("peel_spp", RENDER_BOUNDS["input_spp"][0])):
             if getattr(self, key) is not None and not 1 <= getattr(self, key) <= bound:
                 raise UserError(f"{key} = {getattr(self, key)} must be between 1 and {bound} (or remove it)")

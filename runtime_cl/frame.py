@@ -26,6 +26,10 @@ class Frame:
         ``motion.X, motion.Y``: pixels over the shutter, X right, Y up.
     layers : sequence of Frame, optional
         ``layerN.*`` of a layered input, nearest first, each with rgb, alpha and depth.
+    guard_px : int, default 0
+        Guard band (LSR18 "Boundary"): the pixels are the frame plus this margin on every side,
+        so blur from outside the frame comes in; :func:`runtime_cl.passes.run_pass` renders them
+        all and crops the margin off the result.
     """
 
     rgb: np.ndarray
@@ -33,6 +37,7 @@ class Frame:
     alpha: np.ndarray | None = None
     motion: np.ndarray | None = None
     layers: tuple = ()
+    guard_px: int = 0
 
     def __post_init__(self):
         rgb, depth = np.asarray(self.rgb), np.asarray(self.depth)
@@ -46,10 +51,19 @@ class Frame:
             raise InputError(f"motion: shape {np.shape(self.motion)}, need (H, W, 2) = {(h, w, 2)} "
                              "(motion.X, motion.Y in pixels, Y up)")
         object.__setattr__(self, "layers", tuple(self.layers))
+        g = self.guard_px
+        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0 or (g and 2 * g >= min(h, w)):
+            raise InputError(f"guard_px = {g!r}: the guard band must be an integer >= 0 narrower than half "
+                             f"the image ({h}x{w} pixels, frame and band), or 0 for no band")
 
     @property
     def shape(self) -> tuple:
         return np.shape(self.depth)
+
+    def crop(self, image: np.ndarray) -> np.ndarray:
+        """``image`` (H, W, ...) of these pixels without the guard band: the frame."""
+        g = self.guard_px
+        return image if g == 0 else np.ascontiguousarray(image[g:image.shape[0] - g, g:image.shape[1] - g])
 
     def coverage(self) -> np.ndarray:
         """``alpha``, or 1 everywhere when the frame has none."""

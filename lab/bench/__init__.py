@@ -69,10 +69,16 @@ def _layer_cost(args) -> list:
     return [bench_layer_cost(args["repeats"])]
 
 
+def _splat_layers(args) -> list:
+    from .splat_layers import bench_splat_layers
+
+    return [bench_splat_layers(args["scene"], args["repeats"])]
+
+
 # ``splatlab bench WHAT``: the benchmarks each name runs, in order.
 BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
            "rotation": (_rotation,), "integrate": (_integrate,), "layered": (_layered,),
-           "layer_cost": (_layer_cost,), "all": (_precompute, _runtime)}
+           "layer_cost": (_layer_cost,), "splat_layers": (_splat_layers,), "all": (_precompute, _runtime)}
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,

@@ -10,12 +10,15 @@ A moving scene is shown at mid-shutter, with ``motion.X``, ``motion.Y`` from
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..exr_io import LabelledImage
 from ..scene import Scene
 from .backend import mitsuba
 from ..motion import mid_shutter, scene_moves
+from .guard_band import guard_margin, guarded_scene
 from .layered import render_layers
 from .peel import peel_layers
 from .motion import Animator, motion_vectors
@@ -91,9 +94,15 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
         must simulate), although the pixels themselves are pinhole. When shapes carry a
         ``layer`` key, ``extra`` also holds the layered input's ``layerN.*`` channels
         (:mod:`lab.reference.layered`, same spp); with ``[render] peel_layers``, the umbra-peeled
-        layers instead (:mod:`lab.reference.peel`).
+        layers instead (:mod:`lab.reference.peel`). With ``[render] guard_band``, the pixels
+        reach beyond the frame by ``guard_px`` (:mod:`lab.reference.guard_band`).
     """
     mi_scene = load(scene, "pinhole")
+    if scene.render.guard_band:   # LSR18 "Boundary": the input reaches beyond the frame
+        margin = guard_margin(scene, mi_scene)
+        inner = replace(scene, render=replace(scene.render, guard_band=False))
+        image = render_labelled(guarded_scene(inner, margin), spp, pass_spp, progress)
+        return replace(image, guard_px=margin)
     moves = scene_moves(scene)
     t = mid_shutter(scene.camera) if moves else 0.0
     if moves:

@@ -49,7 +49,7 @@ def _thick_lens(scene, image):
 
 def _the_input(scene, image) -> np.ndarray:
     """A pinhole camera: its labelled-pixel input is the ground truth (every PSF is a delta)."""
-    return image.rgb
+    return image.frame_crop(image.rgb)
 
 
 # Step name -> (scene, labelled input) -> RenderJob to run, or the (H, W, 3) radiance itself.

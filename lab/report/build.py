@@ -79,7 +79,7 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
     report = {
         "schema": 1,
         "scene": {"name": scene.name, "path": scene.source, "resolution": list(scene.info.resolution),
-                  "camera": image.camera},
+                  "camera": image.camera, "guard_px": image.guard_px},
         "plan": {"effects": plan.effects, "psf_models": list(plan.psf_models),
                  "runtime_passes": list(plan.runtime_passes),
                  "skipped": [f"{s.name}: {s.detail}" for s in plan.skipped]},

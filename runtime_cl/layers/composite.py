@@ -41,6 +41,11 @@ Compositing. Back to front with "over" on premultiplied colours:
 ``out = g C + (1 - alpha) out``. With one layer the result is the layer's plain splat; a layer
 with no live pixels changes nothing.
 
+Soft layering (``soft`` > 0, LSR18 section 6.2). A pixel whose CoC lies within ``soft / 2`` of a
+bin's width from an edge between two layers is drawn into both, its colour and coverage split
+linearly (weights summing to 1), so a surface spanning an edge does not break into two hard
+pieces; ``soft = 0`` is the hard binning above, ``soft <= 1`` keeps each pixel in at most two layers.
+
 Layered input (LDI-like: e.g. a foreground layer with alpha and the background rendered without
 the foreground) is a list of :class:`PixelLayer`; all their pixels go into the same global
 layers, so the order of the input layers does not matter.
@@ -55,7 +60,7 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 
-__all__ = ["LayerSplatter", "PixelLayer", "layer_edges", "render_layers"]
+__all__ = ["LayerSplatter", "PixelLayer", "check_soft", "layer_edges", "render_layers"]
 
 # Least known fraction a hole fill trusts: with less known around it fades out instead of
 # blowing up a few stray splats (a hard cut-off would draw its outline through the layers in front).
@@ -68,10 +73,12 @@ class LayerSplatter(Protocol):
     Both return their image and the OpenCL times ``{"device_ms": ..., "transfer_ms": ...}``.
     """
 
-    def splat_layer(self, images: list, cocs: list) -> tuple:
+    def splat_layer(self, images: list, cocs: list, sources: list) -> tuple:
         """Splat and resolve the premultiplied ``(rgb, alpha)`` images, float32 (H, W, C + 1),
         zero outside the layer, each pixel with the PSF of its signed CoC ``cocs[i]`` (H, W)
-        (px; 0 outside the layer); all of them into one canvas. Returns float32 (H, W, C + 1)."""
+        (px; 0 outside the layer); all of them into one canvas. ``sources[i]`` is the index of
+        the input layer image ``i`` comes from (a splatter whose PSFs depend on more than the CoC
+        looks its coordinates up by it). Returns float32 (H, W, C + 1)."""
 
     def blur(self, image, radius_px: float) -> tuple:
         """``image`` (H, W) float32 blurred by the PSF of CoC radius ``radius_px`` everywhere."""
@@ -169,7 +176,30 @@ def _bins(layer: PixelLayer, edges: np.ndarray) -> np.ndarray:
     return np.where(_live(layer), index, -1)
 
 
-def render_layers(splatter: LayerSplatter, layers, n_layers: int):
+def check_soft(soft) -> float:
+    if isinstance(soft, bool) or not isinstance(soft, (int, float, np.floating, np.integer)) \
+            or not 0 <= soft <= 1:
+        raise InputError(f"soft = {soft!r}: the soft-layering width must be a number in [0, 1] (a "
+                         "fraction of one layer's CoC span; 0: hard layers)")
+    return float(soft)
+
+
+def _weights(layer: PixelLayer, edges: np.ndarray, soft: float) -> np.ndarray:
+    """(n, H, W) float32 share of every pixel in every depth layer (the module docstring's soft
+    layering); 0 for culled pixels. ``soft = 0``: 0/1, the hard bins of :func:`_bins`."""
+    n = len(edges) - 1
+    if soft == 0 or n == 1:
+        bins = _bins(layer, edges)
+        return np.stack([bins == i for i in range(n)]).astype(np.float32)
+    t = (layer.coc.astype(np.float64) - edges[0]) / (edges[1] - edges[0])   # position in bins
+    # share above edge k (at t = k): 0 below k - soft/2, 1 above k + soft/2, linear between
+    above = [np.ones_like(t)] + [np.clip((t - k) / soft + 0.5, 0.0, 1.0) for k in range(1, n)] + \
+        [np.zeros_like(t)]
+    live = _live(layer)
+    return np.stack([(above[i] - above[i + 1]) * live for i in range(n)]).astype(np.float32)
+
+
+def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 0.0):
     """Depth of field with occlusion: splat global depth layers and composite them.
 
     Parameters
@@ -180,6 +210,9 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int):
         The input: one image, or the layers of a layered image (any order).
     n_layers : int
         Global depth layers (>= 1), in equal steps of signed CoC.
+    soft : float, default 0
+        Soft layering: the width, as a fraction of one layer's CoC span (in [0, 1]), around each
+        edge between layers over which a pixel is drawn into both, weighted (0: hard layers).
 
     Returns
     -------
@@ -195,16 +228,16 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int):
     start = time.perf_counter()
     layers = _check_layers(layers)
     edges = _edges(layers, _check_count(n_layers))
-    bins = [_bins(x, edges) for x in layers]
+    weights = [_weights(x, edges, check_soft(soft)) for x in layers]
     h, w, c = layers[0].rgb.shape
     out = np.zeros((h, w, c), np.float32)
     per_layer = []
     for index in range(len(edges) - 2, -1, -1):                     # back to front
-        members = [b == index for b in bins]
+        members = [wt[index] for wt in weights]
         if not any(m.any() for m in members):
             continue
         colour, alpha, sites, stats = _splat_layer(splatter, layers, members)
-        nearer = sum(x.alpha * ((b >= 0) & (b < index)) for x, b in zip(layers, bins))
+        nearer = sum(x.alpha * wt[:index].sum(axis=0) for x, wt in zip(layers, weights))
         known = np.ones((h, w), np.float32)
         if np.any(nearer > 0):
             hidden, times = splatter.blur(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
@@ -235,16 +268,16 @@ def _splat_layer(splatter: LayerSplatter, layers, members):
     """One depth layer: resolved premultiplied colour (H, W, C), coverage (H, W), the coverage of
     its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, times)."""
     c = layers[0].rgb.shape[2]
-    parts = [(x, m) for x, m in zip(layers, members) if m.any()]
-    images = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None] for x, m in parts]
-    cocs = [np.where(m, x.coc, 0.0).astype(np.float32) for x, m in parts]
-    resolved, times = splatter.splat_layer(images, cocs)
+    parts = [(i, x, m) for i, (x, m) in enumerate(zip(layers, members)) if m.any()]
+    images = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None] for _, x, m in parts]
+    cocs = [np.where(m > 0, x.coc, 0.0).astype(np.float32) for _, x, m in parts]
+    resolved, times = splatter.splat_layer(images, cocs, [i for i, _, _ in parts])
     radii = [np.abs(k) for k in cocs]
     sites = sum(im[..., c] for im in images)
     # rho weighs radii by coverage; a layer of pure light (zero alpha, e.g. the sky) by pixel
-    weights = [im[..., c] for im in images] if sites.any() else [m.astype(np.float32) for _, m in parts]
+    weights = [im[..., c] for im in images] if sites.any() else [m for _, _, m in parts]
     rho = sum(float((wt * r).sum()) for wt, r in zip(weights, radii)) / sum(float(wt.sum()) for wt in weights)
-    stats = {"pixels": int(sum(m.sum() for _, m in parts)), "radius_px": rho,
+    stats = {"pixels": int(sum((m > 0).sum() for _, _, m in parts)), "radius_px": rho,
              "max_radius_px": float(max(r.max() for r in radii)), "device_ms": times["device_ms"],
              "transfer_ms": times["transfer_ms"]}
     return resolved[..., :c], resolved[..., c], sites.astype(np.float32), stats

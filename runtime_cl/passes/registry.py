@@ -137,7 +137,8 @@ def run_pass(name: str, frame, camera, db=None, *, runs: int = 0, layers: int = 
              **options):
     """Render ``frame`` with the pass ``name`` and time it (:func:`runtime_cl.timing.measure`).
 
-    Returns ``(image, Timing)``; ``runs`` timed calls follow one warm-up call (0: one call).
+    Returns ``(image, Timing)``; ``runs`` timed calls follow one warm-up call (0: one call). The
+    image is the frame: a guard band (``frame.guard_px``) is rendered, timed and cropped off.
     """
     start = time.perf_counter()
     p = get_pass(name)(camera, db, layers=layers, device=device, **options)
@@ -145,4 +146,5 @@ def run_pass(name: str, frame, camera, db=None, *, runs: int = 0, layers: int = 
     start = time.perf_counter()
     prepared = p.prepare(frame)
     prepare_ms = (time.perf_counter() - start) * 1e3
-    return measure(lambda: p(prepared), runs, prepare_ms, build_ms)
+    image, timing = measure(lambda: p(prepared), runs, prepare_ms, build_ms)
+    return frame.crop(image), timing

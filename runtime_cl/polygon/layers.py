@@ -16,7 +16,7 @@ class PolygonLayerSplatter:
     def __init__(self, splatter: PolygonSplatter):
         self.splatter = splatter
 
-    def splat_layer(self, images: list, cocs: list) -> tuple:
+    def splat_layer(self, images: list, cocs: list, sources: list = ()) -> tuple:
         sp = self.splatter
         h, w, c = images[0].shape
         canvas = sp.canvas(h, w, c, sum(float(np.abs(im).sum(dtype=np.float64)) for im in images))

@@ -16,7 +16,8 @@ class GatherFilter:
     ddb : DeviceDatabase
         The uploaded database.
     colour_channels : int
-        1 or 3 channels in the colour input.
+        1 or 3 channels in the colour input, or 4 (radiance and opacity, see
+        :class:`~runtime_cl.spreadlets.splat.TileSplatter`).
     rotate : bool
         Turn each output pixel's PSF by its angle (``kernels/spreadlets/gather.cl``); :meth:`run` then
         needs an angle buffer. Default False: the unrotated kernel.
@@ -25,8 +26,8 @@ class GatherFilter:
     def __init__(self, ddb: DeviceDatabase, colour_channels: int, rotate: bool = False):
         import pyopencl as cl
 
-        if colour_channels not in (1, 3):
-            raise InputError(f"colour channels = {colour_channels}: must be 1 or 3")
+        if colour_channels not in (1, 3, 4):
+            raise InputError(f"colour channels = {colour_channels}: must be 1, 3 or 4")
         self.ddb, self.device = ddb, ddb.device
         self.out_channels = max(colour_channels, ddb.db.channels)
         self.rotate = bool(rotate)

@@ -22,6 +22,7 @@ from runtime_cl.psf.upload import DeviceDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.spreadlets.gather import GatherFilter
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
+from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
 from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter
 
@@ -49,11 +50,14 @@ class Renderer:
         How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
         (:func:`runtime_cl.integrate.integrator_names`; default ``"exact"``, the float64 FFT;
         ``"fft32"``, ``"pyramid"``).
+    crop_integration : bool
+        Integrate only the rectangle the splats reach when it is much smaller than the canvas
+        (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.
     """
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
                  run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
-                 integrator: str = DEFAULT_INTEGRATOR):
+                 integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False):
         integrator_class = get_integrator(integrator)   # an unknown name fails before any upload
         if spreadlet_rotation not in SPREADLET_ROTATIONS:
             raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
@@ -65,6 +69,7 @@ class Renderer:
         self.run_max = run_max
         self.spreadlet_rotation = spreadlet_rotation
         self.integrator = integrator_class(self.device)
+        self.crop_integration = bool(crop_integration)
         self._wrappers: dict = {}
 
     def _wrapper(self, method: str, channels: int, rotate: bool):
@@ -95,7 +100,9 @@ class Renderer:
         Parameters
         ----------
         colour : array_like, float32, (H, W, C)
-            Linear radiance, C = 1 or 3; zero pixels splat nothing.
+            Linear radiance, C = 1 or 3; zero pixels splat nothing. C = 4: radiance and opacity
+            (premultiplied RGB, A) of a depth layer, the opacity drawn with the same PSFs (a
+            3-channel database's green one).
         coords : array_like, float32, (H, W, ns)
             PSF coordinates per pixel (for ``simple_lens``: |CoC radius| in pixels; every model's
             map is in :mod:`runtime_cl.coords.maps`), inside the database's ranges.
@@ -132,8 +139,9 @@ class Renderer:
         colour = as_f32(colour, "colour", 3)
         coords = as_f32(coords, "coords", 3)
         h, w, ch = colour.shape
-        if ch not in (1, 3):
-            raise InputError(f"colour: {ch} channels, need 1 or 3 (shape (H, W, C))")
+        if ch not in (1, 3, 4):
+            raise InputError(f"colour: {ch} channels, need 1 or 3 (shape (H, W, C)), or 4: a depth "
+                             "layer's radiance and opacity (runtime_cl.spreadlets.layers)")
         if coords.shape[:2] != (h, w):
             raise InputError(f"coords: shape {coords.shape} does not match colour {colour.shape}; "
                              "need one set of PSF coordinates per pixel")
@@ -198,7 +206,7 @@ class _Spreadlets:
         p, lap = out.pad, out.canvas[0]
         # an all-zero Laplacian integrates to zero; skip the integration when nothing was splat
         if out.spreadlets:
-            full, times = r.integrator(lap)
+            full, times = integrate_support(r.integrator, lap) if r.crop_integration else r.integrator(lap)
             image = full[p:p + h, p:p + w]
         else:
             image, times = np.zeros((h, w, lap.shape[-1]), np.float32), {"device_ms": 0.0, "transfer_ms": 0.0}

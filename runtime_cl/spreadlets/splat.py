@@ -85,7 +85,8 @@ class TileSplatter:
     ddb : DeviceDatabase
         The uploaded database.
     colour_channels : int
-        1 or 3 channels in the colour input.
+        1 or 3 channels in the colour input, or 4 (a depth layer's radiance and opacity, each
+        drawn with the same PSFs; a 3-channel database draws the 4th with its green PSF).
     dense_all : bool
         True: LSR18's Splat baseline (every pixel splats its dense PSF); False: spreadlets, with
         fast-tracked cells splat dense into a second canvas.
@@ -106,8 +107,8 @@ class TileSplatter:
                  rotate: bool = False, spreadlet_rotation: str = "bilinear"):
         import pyopencl as cl
 
-        if colour_channels not in (1, 3):
-            raise InputError(f"colour channels = {colour_channels}: must be 1 or 3")
+        if colour_channels not in (1, 3, 4):
+            raise InputError(f"colour channels = {colour_channels}: must be 1, 3 or 4")
         if not (isinstance(run_max, (int, np.integer)) and 1 <= run_max <= 256):
             raise InputError(f"run_max = {run_max!r}: must be an integer in [1, 256]")
         if spreadlet_rotation not in SPREADLET_ROTATIONS:
@@ -168,7 +169,7 @@ class TileSplatter:
             if not (int(tw) >= 1 and int(th) >= 1):
                 raise InputError(f"tile = {tile!r}: need a size >= 1 or a (width, height) pair of them")
             tw, th = min(int(tw), width), min(int(th), height)
-        pixel_bytes = 16 if self.out_channels == 3 else 4  # RGB tile pixels are float4
+        pixel_bytes = 4 if self.out_channels == 1 else 16  # RGB(A) tile pixels are float4
 
         def size(tw, th):
             tx, ty = -(-width // tw), -(-height // th)

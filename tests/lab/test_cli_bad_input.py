@@ -282,3 +282,23 @@ def test_report_knobs_unknown_or_without_sweep(work, capfd):
                   "operating_point")
     fails_cleanly(["report", path, "--knobs", "lens_rays"], capfd, work, "--knobs", "add --sweep")
     assert not (work / "cache").exists()   # refused before any render
+
+
+@pytest.mark.parametrize("method", ["spreadlets", "splat", "filter"])
+def test_spreadlet_layers_zero(work, capfd, method):
+    fails_cleanly(["render", work / "in.exr", "--db", work / "db.spdb", "--method", method, "--layers", "0",
+                   "--out", work / "o.exr"], capfd, work, "--layers 0", ">= 1")
+
+
+def test_bad_guard_band_header(work, capfd):
+    path = exr_with(work, {"splatlab.guard_px": "6"})
+    fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capfd, work,
+                  "bad.exr", "splatlab.guard_px = '6'", "narrower than half")
+
+
+@pytest.mark.parametrize("new, needles", [
+    ("seed = 7\nguard_band = 3", ["guard_band = 3", "true or false"]),
+    ("seed = 7\ndepth_layers = 0", ["depth_layers = 0", "between 1 and 16"]),
+])
+def test_layer_and_guard_scene_keys(work, capfd, new, needles):
+    fails_cleanly(["plan", scene(work, "seed = 7", new)], capfd, work, "s.toml", *needles)

@@ -133,6 +133,7 @@ def test_render_layers_errors_name_the_option(layered_exr, tmp_path, capsys):
     assert main(["render", str(path), "--method", "polygon", "--layers", "0", "--out", out]) == 2
     err = capsys.readouterr().err
     assert "--layers 0" in err and ">= 1" in err and len(err.splitlines()) == 1
-    assert main(["render", str(path), "--method", "splat", "--layers", "2", "--out", out]) == 2
-    assert "--layers 2: depth layers are for --method polygon" in capsys.readouterr().err
+    assert main(["render", str(path), "--method", "identity", "--layers", "2", "--out", out]) == 2
+    assert "--layers 2: depth layers are for --method spreadlets / splat / filter / polygon" in \
+        capsys.readouterr().err
     assert not (tmp_path / "x.exr").exists()

@@ -1,7 +1,7 @@
 // LSR18's Filter baseline: gather with the PSF of the output pixel's own cell,
 //   out(x) = sum_o psf_x(o) * in(x - o),   in = 0 outside the image.
 // One work item per output row (no races; per-row counts without atomics). Needs psf/psf_space.cl.
-// Build options (beside psf/psf_space.cl's): CC, DC, OC as in spreadlets/splat.cl; RGB is gathered as float4.
+// Build options (beside psf/psf_space.cl's): CC, DC, OC as in spreadlets/splat.cl; RGB(A) is gathered as float4.
 // ROTATE = 1 (needs spreadlets/rotate.cl first): the PSF is turned by the output pixel's angle, the same
 // turned PSF as spreadlets/splat.cl's (spreadlets/rotate.cl), so a PSF that is the same everywhere gives the Splat
 // baseline's image.
@@ -76,8 +76,10 @@ __kernel void filter_gather(__global const float *colour,      // (H, W, CC)
 #endif
 #if OC == 1
         out[(long)y * W + x] = acc;
-#else
+#elif OC == 3
         vstore3(acc.xyz, (long)y * W + x, out);
+#else
+        vstore4(acc, (long)y * W + x, out);
 #endif
     }
     counts[y] = n;

@@ -57,7 +57,7 @@ inline float4 psf_tap(__global const float *dv, const int side, const int x, con
 #if DC == 1
     return (float4)(dv[j]);
 #else
-    return (float4)(dv[3 * j], dv[3 * j + 1], dv[3 * j + 2], 0.0f);
+    return (float4)(dv[3 * j], dv[3 * j + 1], dv[3 * j + 2], LANE3(dv, j));
 #endif
 }
 
@@ -132,6 +132,6 @@ inline float4 stored_sum(__global const float *dense_sum, const int cell) {
 #if DC == 1
     return (float4)(dense_sum[cell]);
 #else
-    return (float4)(dense_sum[3 * cell], dense_sum[3 * cell + 1], dense_sum[3 * cell + 2], 0.0f);
+    return (float4)(dense_sum[3 * cell], dense_sum[3 * cell + 1], dense_sum[3 * cell + 2], LANE3(dense_sum, cell));
 #endif
 }

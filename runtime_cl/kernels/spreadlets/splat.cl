@@ -24,7 +24,8 @@
 // (dense rows) pixels per vector op.
 //
 // Build options (beside psf/psf_space.cl's):
-//   CC, DC, OC   colour channels, database channels, output channels = max(CC, DC) (1 or 3)
+//   CC, DC, OC   colour channels (1, 3 or 4), database channels (1 or 3), output channels
+//                = max(CC, DC); see prelude/pixels.cl
 //   PAD          canvas padding: largest spreadlet offset or dense radius + 1
 //   DENSE_ALL    1: every pixel splats its dense PSF (LSR18's Splat baseline) into group 0;
 //                0: spreadlets into group 0, fast-tracked cells dense into group 1 (if HAS_FAST)
@@ -60,7 +61,7 @@ typedef float16 float16_a16 __attribute__((aligned(16)));
 // One dense PSF row (side pixels of values dv) times colour col, added at row[0 .. side).
 inline void dense_row(__global pix_t *row, const pix_t col, const int side, __global const float *dv) {
     int ox = 0;
-#if OC == 3
+#if OC != 1
     // two pixels per 8-wide vector op: 1.15x the float4 loop's throughput
     const float8 c2 = (float8)(col, col);
     __global float *rowf = (__global float *)row;
@@ -75,7 +76,7 @@ inline void dense_row(__global pix_t *row, const pix_t col, const int side, __gl
 // One spreadlet of value v times the colours of a run of n pixels, added at dst[0 .. n).
 inline void splat_run(__global pix_t *dst, const pix_t v, const pix_t *run_col, const int n) {
     int k = 0;
-#if OC == 3
+#if OC != 1
     // four pixels per 16-wide vector op (two AVX ops): 1.3-1.4x the float4 loop's throughput
     const float16 v4 = (float16)(v, v, v, v);
     __global float *d = (__global float *)dst;
@@ -300,8 +301,10 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
             }
 #if OC == 1
             dst[x] = acc;
-#else
+#elif OC == 3
             vstore3(acc.xyz, x, dst);
+#else
+            vstore4(acc, x, dst);
 #endif
         }
     }

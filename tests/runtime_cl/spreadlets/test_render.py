@@ -41,7 +41,7 @@ def test_bad_input_is_an_input_error(renderer):
     coords = np.ones((4, 5, 1), np.float32)
     with pytest.raises(InputError, match=r"method = 'blur'.*spreadlets"):
         renderer.render(colour, coords, "blur")
-    with pytest.raises(InputError, match=r"colour: 2 channels, need 1 or 3"):
+    with pytest.raises(InputError, match=r"colour: 2 channels, need 1 or 3 .*or 4"):
         renderer.render(np.ones((4, 5, 2), np.float32), coords)
     with pytest.raises(InputError, match=r"coords: shape \(4, 6, 1\) does not match"):
         renderer.render(colour, np.ones((4, 6, 1), np.float32))

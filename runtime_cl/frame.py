@@ -26,6 +26,8 @@ class Frame:
         ``motion.X, motion.Y``: pixels over the shutter, X right, Y up.
     layers : sequence of Frame, optional
         ``layerN.*`` of a layered input, nearest first, each with rgb, alpha and depth.
+    samples : array_like, (H, W, 3), optional
+        ``lens.U, lens.V, time`` of a stochastic (1-spp) input (:mod:`runtime_cl.stochastic`).
     """
 
     rgb: np.ndarray
@@ -33,6 +35,7 @@ class Frame:
     alpha: np.ndarray | None = None
     motion: np.ndarray | None = None
     layers: tuple = ()
+    samples: np.ndarray | None = None
 
     def __post_init__(self):
         rgb, depth = np.asarray(self.rgb), np.asarray(self.depth)
@@ -45,6 +48,9 @@ class Frame:
         if self.motion is not None and np.shape(self.motion) != (h, w, 2):
             raise InputError(f"motion: shape {np.shape(self.motion)}, need (H, W, 2) = {(h, w, 2)} "
                              "(motion.X, motion.Y in pixels, Y up)")
+        if self.samples is not None and np.shape(self.samples) != (h, w, 3):
+            raise InputError(f"samples: shape {np.shape(self.samples)}, need (H, W, 3) = {(h, w, 3)} "
+                             "(lens.U, lens.V, time)")
         object.__setattr__(self, "layers", tuple(self.layers))
 
     @property

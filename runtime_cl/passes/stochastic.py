@@ -1,0 +1,57 @@
+"""Reconstruction from a stochastic (1-spp) image: LSR18's spreadlets and Splat on re-centred samples.
+
+The input already holds depth of field and motion blur, sampled once per pixel; its channels
+``lens.U, lens.V, time`` say where on the lens and when. :func:`runtime_cl.stochastic.recentre`
+moves every pixel back to its surface's position at the lens centre and mid-shutter (LSR18 6.2,
+Fig. 7 d-e) as a few frames (slots), which the ordinary spreadlet or Splat pass splats; the sum
+is the reconstruction. Splatting the input as it is would apply the blur twice (Fig. 7 c).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+from runtime_cl.passes.registry import register_pass
+from runtime_cl.passes.spreadlets import SplatPass, SpreadletsPass
+from runtime_cl.stochastic import CHANNELS, recentre
+from runtime_cl.timing import CallTimes
+
+__all__ = ["StochasticSpreadletsPass", "StochasticSplatPass"]
+
+
+class _Stochastic:
+    """Re-centre in ``prepare`` (not timed, like the other passes' per-pixel parameters); each
+    call splats every slot with the base pass and sums."""
+
+    channels = ("R", "G", "B", "Z") + CHANNELS
+
+    def prepare(self, frame):
+        if frame.samples is None:
+            raise InputError(f"the {self.name!r} pass reconstructs a stochastic image: it needs the channels "
+                             f"{list(CHANNELS)}; give the labelled image those channels, or splat a pinhole "
+                             "image with the plain pass")
+        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera)
+        return rec, [super(_Stochastic, self).prepare(f) for f in rec.frames]
+
+    def __call__(self, prepared):
+        rec, parts = prepared
+        total, device, transfer, counts = None, 0.0, 0.0, {}
+        for part in parts:
+            image, t = super(_Stochastic, self).__call__(part)
+            total = image if total is None else total + image
+            device, transfer = device + t.device_ms, transfer + t.transfer_ms
+            for k, v in t.counts.items():
+                counts[k] = counts.get(k, 0) + v
+        counts.update(slots=len(parts), dropped_samples=rec.dropped)
+        return total, CallTimes(device_ms=device, transfer_ms=transfer, counts=counts)
+
+
+@register_pass("stochastic_spreadlets")
+class StochasticSpreadletsPass(_Stochastic, SpreadletsPass):
+    summary = "spreadlets on a stochastic 1-spp image, each pixel re-centred by its lens sample and time"
+
+
+@register_pass("stochastic_splat")
+class StochasticSplatPass(_Stochastic, SplatPass):
+    summary = "dense Splat on a stochastic 1-spp image, each pixel re-centred by its lens sample and time"
+    timing_reference = False

@@ -14,6 +14,12 @@ radiance), A (1 where the primary ray hits a surface), Z (the planar depth of th
 camera at time t), ``lens.U, lens.V`` (in the film's axes: Mitsuba's aperture sample mirrored,
 as its camera x points left and y up) and ``time``; with motion also ``motion.X, motion.Y`` (the
 hit point's chord from shutter open to close, as the labelled input's).
+
+``shading_spp`` > 1 traces that many paths from each pixel's one camera ray (same sub-pixel
+position, lens sample and time) and averages them: one *visibility* sample per pixel with
+converged shading, as a stochastic rasterizer (Akenine-Moeller et al. 2007; LSR18 Fig. 2 b)
+delivers. The lens and time noise is then all there is, which is what the reconstruction removes;
+1 is a plain 1-spp path trace (LSR18 Fig. 9).
 """
 from __future__ import annotations
 
@@ -67,7 +73,7 @@ def _flow(scene: Scene, points, t_frac, shape_idx) -> np.ndarray:
     return flow
 
 
-def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0) -> dict:
+def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shading_spp: int = 1) -> dict:
     """Trace one path per pixel (see the module docstring); the per-pixel arrays, row-major:
     ``rgb`` (N, 3), ``depth`` (N,), ``points`` (N, 3) world hit points, ``shape_idx`` (N,) scene
     shape hit (-1: none), ``lens`` (N, 2) Mitsuba's aperture samples, ``t_frac`` (N,) shutter
@@ -81,8 +87,12 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0) -> d
         Which independent image (seeds: :func:`stochastic_seed`); 4 spp is images 0-3.
     max_motion_px : float
         The longest motion vector on screen (the labelled input's); sets the sub-frames.
+    shading_spp : int
+        Paths traced from each pixel's camera ray (see the module docstring).
     """
     _check_camera(scene)
+    if isinstance(shading_spp, bool) or not isinstance(shading_spp, int) or not 1 <= shading_spp <= 4096:
+        raise UserError(f"shading_spp = {shading_spp!r}: give an integer in [1, 4096] (paths per camera ray)")
     mi = mitsuba()
     import drjit as dr
 
@@ -112,15 +122,20 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0) -> d
         t_abs = open_ + (s + 0.5) / k * (close - open_)
         if animator is not None:
             animator.set_time(t_abs)
-        pos = mi.Point2f(mi.Float(((pix % w) + jitter[pix, 0]) / w), mi.Float(((pix // w) + jitter[pix, 1]) / h))
-        aperture = mi.Point2f(mi.Float(lens[pix, 0]), mi.Float(lens[pix, 1]))
+        lanes = np.repeat(pix, shading_spp)      # one camera ray per pixel, shading_spp paths from it
+        pos = mi.Point2f(mi.Float(((lanes % w) + jitter[lanes, 0]) / w),
+                         mi.Float(((lanes // w) + jitter[lanes, 1]) / h))
+        aperture = mi.Point2f(mi.Float(lens[lanes, 0]), mi.Float(lens[lanes, 1]))
         sampler = mi.load_dict({"type": "independent"})
-        sampler.seed(int(mi_seeds[s]), int(pix.size))
+        sampler.seed(int(mi_seeds[s]), int(lanes.size))
         ray, weight = sensor.sample_ray_differential(mi.Float(t_abs), sampler.next_1d(), pos, aperture)
         spec, _, _ = integrator.sample(mi_scene, sampler, ray, sensor.get_medium(), True)
         value = spec * weight
-        si = mi_scene.ray_intersect(mi.Ray3f(ray))
-        rgb[pix] = np.stack([np.asarray(value[i]) for i in range(3)], axis=-1)
+        rgb[pix] = np.stack([np.asarray(value[i]) for i in range(3)], axis=-1).reshape(
+            pix.size, shading_spp, 3).mean(axis=1)
+        ray = mi.Ray3f(mi.Point3f(*(mi.Float(np.asarray(ray.o[i])[::shading_spp]) for i in range(3))),
+                       mi.Vector3f(*(mi.Float(np.asarray(ray.d[i])[::shading_spp]) for i in range(3))))
+        si = mi_scene.ray_intersect(ray)
         valid = np.asarray(si.is_valid(), bool)
         p = np.stack([np.asarray(si.p[i], np.float64) for i in range(3)], axis=-1)
         z = (p - scene.camera.position_at(t_abs)) @ scene.camera.forward()
@@ -132,7 +147,8 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0) -> d
             "t_frac": t_frac, "jitter": jitter}
 
 
-def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0) -> LabelledImage:
+def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
+                      shading_spp: int = 1) -> LabelledImage:
     """One 1-spp stochastic image of ``scene`` with its lens samples and times.
 
     Parameters
@@ -143,9 +159,11 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0) 
         Which independent image (seeds: :func:`stochastic_seed`); 4 spp is images 0-3.
     max_motion_px : float
         The longest motion vector on screen (the labelled input's); sets the sub-frames.
+    shading_spp : int
+        Paths traced from each pixel's camera ray (see the module docstring).
     """
     w, h = scene.width, scene.height
-    tr = trace_samples(scene, index, max_motion_px)
+    tr = trace_samples(scene, index, max_motion_px, shading_spp)
     lens, depth, t_frac = tr["lens"], tr["depth"], tr["t_frac"]
     # Mitsuba's camera has x left and y up, the film x right and y down: the concentric map is odd
     # in each coordinate, so 1 - u mirrors the disc point into the film's axes

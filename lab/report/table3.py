@@ -73,8 +73,9 @@ def scene_at(scene, width: int | None):
     return replace(scene, info=replace(scene.info, resolution=(width, height)))
 
 
-def stochastic_inputs(scene, image, count: int, progress: bool = True) -> list:
-    """``count`` independent 1-spp stochastic images of ``scene`` (cached beside its input)."""
+def stochastic_inputs(scene, image, count: int, progress: bool = True, shading_spp: int = 1) -> list:
+    """``count`` independent 1-spp stochastic images of ``scene`` (cached beside its input);
+    ``shading_spp`` paths per camera ray (:mod:`lab.reference.stochastic`)."""
     from ..pipeline import render_key
     from ..reference.stochastic import render_stochastic
 
@@ -84,12 +85,12 @@ def stochastic_inputs(scene, image, count: int, progress: bool = True) -> list:
     longest = float(np.hypot(*flow).max()) if flow else 0.0
     out = []
     for i in range(count):
-        path = folder / f"stochastic-{i}-{key}.exr"
+        path = folder / f"stochastic-{i}-shade{shading_spp}-{key}.exr"
         if not path.exists():
             if progress:
                 print(f"  stochastic input {i} of {scene.name}", flush=True)
             folder.mkdir(parents=True, exist_ok=True)
-            write_labelled(path, render_stochastic(scene, i, longest))
+            write_labelled(path, render_stochastic(scene, i, longest, shading_spp))
         out.append(read_labelled(path))
     return out
 
@@ -105,7 +106,7 @@ def _frame(img, source: str):
                  samples=lens_time_samples(img.extra, source, img.depth.shape))
 
 
-def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True) -> dict:
+def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, shading_spp: int = 1) -> dict:
     """Every figure of one scene's Table 3 row; writes its PNGs into ``out_dir``."""
     from runtime_cl.passes import get_pass, run_pass
     from runtime_cl.psf.database import SpreadletDatabase
@@ -123,12 +124,13 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True) ->
     dbs = build_databases(scene, plan, image, progress=progress)
     dbs = {m: SpreadletDatabase.load(r.path, expect_model=m) for m, r in dbs.items() if m != FAR_FIELD}
     t0 = time.perf_counter()
-    inputs = stochastic_inputs(scene, image, 4 if spp4 else 1, progress)
+    inputs = stochastic_inputs(scene, image, 4 if spp4 else 1, progress, shading_spp)
     input_s = round(time.perf_counter() - t0, 2)
     frames = [_frame(img, f"{scene.name} stochastic input {i}") for i, img in enumerate(inputs)]
     camera = runtime_camera(image)
     row = {"scene": scene.name, "size": [scene.width, scene.height], "models": sorted(dbs),
-           "reference_spp": scene.render.reference_spp, "reference_s": info.get("reference_s"),
+           "reference_spp": scene.render.reference_spp, "shading_spp": shading_spp,
+           "reference_s": info.get("reference_s"),
            "stochastic_input_s": input_s, "methods": {}}
     save_render(reference, out_dir / f"{scene.name}-reference.png")
     save_render(inputs[0].rgb, out_dir / f"{scene.name}-input-1spp.png")
@@ -163,7 +165,7 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True) ->
 
 def render_html(data: dict) -> str:
     cols = sorted({k for r in data["scenes"] for k in r["methods"]})
-    head = "<tr><th>scene</th><th>size</th>" + "".join(f"<th>{html.escape(c)} SSIM</th>" for c in cols) + \
+    head = "<tr><th>scene</th><th>size</th><th>paths per camera ray</th>" + "".join(f"<th>{html.escape(c)} SSIM</th>" for c in cols) + \
            "<th>LSR18: spreadlets / BM3D / Splat</th></tr>"
     body = []
     for r in data["scenes"]:
@@ -172,6 +174,7 @@ def render_html(data: dict) -> str:
         cells = "".join(f"<td>{r['methods'][c]['ssim']:.3f}</td>" if c in r["methods"] else "<td>&ndash;</td>"
                         for c in cols)
         body.append(f"<tr><td>{html.escape(r['scene'])}</td><td>{r['size'][0]}&times;{r['size'][1]}</td>"
+                    f"<td>{r.get('shading_spp', 1)}</td>"
                     f"{cells}<td>{paper}</td></tr>")
     imgs = "".join(f"<h3>{html.escape(r['scene'])}</h3>" + "".join(
         f"<img src='{html.escape(r['scene'])}-{k}.png' title='{k}' width=256> "
@@ -192,6 +195,9 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=None, help="render width in pixels (default: the scene's)")
     ap.add_argument("--out", type=Path, default=Path("reports/table3"))
     ap.add_argument("--no-4spp", action="store_true", help="only the 1-spp input")
+    ap.add_argument("--shading-spp", type=int, default=1,
+                    help="paths per camera ray: 1 is a 1-spp path trace (LSR18 Fig. 9); more gives one "
+                         "visibility sample per pixel with converged shading (a stochastic rasterizer)")
     args = ap.parse_args(argv)
     out = check_output_dir(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -199,7 +205,7 @@ def main(argv=None) -> int:
     for path in args.scenes:
         scene = scene_at(load_scene(path), args.size)
         print(f"{scene.name} at {scene.width}x{scene.height}", flush=True)
-        rows.append(scene_row(scene, out, spp4=not args.no_4spp))
+        rows.append(scene_row(scene, out, spp4=not args.no_4spp, shading_spp=args.shading_spp))
         print(json.dumps({k: round(v["ssim"], 4) for k, v in rows[-1]["methods"].items()}), flush=True)
         data = {"schema": 1, "kind": "table3", "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                 "about": "LSR18 Table 3 reproduced: reconstruction from a 1-spp (and 4-spp) stochastic path trace; "

@@ -62,3 +62,14 @@ def test_shaped_aperture_is_refused():
     scene = load_scene(SCENES / "tiny_heart.toml")
     with pytest.raises(UserError, match=r"\[camera\]: a stochastic input is written for a thin lens"):
         render_stochastic(scene)
+
+
+def test_shading_spp_keeps_the_visibility_sample_and_lowers_the_noise():
+    scene = _tiny(size=24)
+    one, many = trace_samples(scene, shading_spp=1), trace_samples(scene, shading_spp=16)
+    for key in ("lens", "t_frac", "jitter", "depth"):
+        np.testing.assert_array_equal(one[key], many[key])       # the same camera ray per pixel
+    ref = trace_samples(scene, shading_spp=256)["rgb"]   # the same camera rays, converged shading
+    assert np.mean((many["rgb"] - ref) ** 2) < 0.25 * np.mean((one["rgb"] - ref) ** 2)
+    with pytest.raises(UserError, match=r"shading_spp = 0: give an integer in \[1, 4096\]"):
+        trace_samples(scene, shading_spp=0)

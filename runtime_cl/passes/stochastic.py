@@ -5,8 +5,17 @@ The input already holds depth of field and motion blur, sampled once per pixel; 
 moves every pixel back to its surface's position at the lens centre and mid-shutter (LSR18 6.2,
 Fig. 7 d-e) as a few frames (slots), which the ordinary spreadlet or Splat pass splats; the sum
 is the reconstruction. Splatting the input as it is would apply the blur twice (Fig. 7 c).
+
+Option ``normalize`` (default False: LSR18's plain sum) also splats each entry's sample count
+with the same PSFs and divides the colour by that density (at least ``min_density``): the
+re-centred samples of one surface lie at random places, so their plain sum fluctuates by about
+1 / sqrt(pi r^2) of a CoC of radius r even where the colour is constant; the ratio does not.
+Where surfaces of different depths mix (a focused background behind a blurred occluder) the
+ratio leans towards the blurred surface, so it trades that noise for a bias there.
 """
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -25,23 +34,45 @@ class _Stochastic:
 
     channels = ("R", "G", "B", "Z") + CHANNELS
 
+    def configure(self, *, normalize: bool = False, min_density: float = 0.5, **options):
+        if not isinstance(normalize, bool):
+            raise InputError(f"normalize = {normalize!r}: give True (divide by the splatted sample density) "
+                             "or False (LSR18's plain sum)")
+        if isinstance(min_density, bool) or not (isinstance(min_density, (int, float)) and 0 < min_density <= 1):
+            raise InputError(f"min_density = {min_density!r}: give a number in (0, 1], the least density "
+                             "the normalised reconstruction divides by")
+        self.normalize, self.min_density = normalize, float(min_density)
+        super().configure(**options)
+
     def prepare(self, frame):
         if frame.samples is None:
             raise InputError(f"the {self.name!r} pass reconstructs a stochastic image: it needs the channels "
                              f"{list(CHANNELS)}; give the labelled image those channels, or splat a pinhole "
                              "image with the plain pass")
         rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera)
-        return rec, [super(_Stochastic, self).prepare(f) for f in rec.frames]
+        base = super(_Stochastic, self).prepare
+        parts = [base(f) for f in rec.frames]
+        density = [base(replace(f, rgb=n)) for f, n in zip(rec.frames, rec.counts)] if self.normalize else []
+        return rec, parts, density
 
-    def __call__(self, prepared):
-        rec, parts = prepared
-        total, device, transfer, counts = None, 0.0, 0.0, {}
+    def _sum(self, parts, counts: dict):
+        total, device, transfer = None, 0.0, 0.0
         for part in parts:
             image, t = super(_Stochastic, self).__call__(part)
             total = image if total is None else total + image
             device, transfer = device + t.device_ms, transfer + t.transfer_ms
             for k, v in t.counts.items():
                 counts[k] = counts.get(k, 0) + v
+        return total, device, transfer
+
+    def __call__(self, prepared):
+        rec, parts, density = prepared
+        counts = {}
+        total, device, transfer = self._sum(parts, counts)
+        if density:
+            weight, d2, t2 = self._sum(density, {})
+            total = total / np.maximum(weight, self.min_density)   # host work: in the call's time
+            device, transfer = device + d2, transfer + t2
         counts.update(slots=len(parts), dropped_samples=rec.dropped)
         return total, CallTimes(device_ms=device, transfer_ms=transfer, counts=counts)
 

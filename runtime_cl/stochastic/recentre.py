@@ -40,6 +40,9 @@ class Recentred:
     frames : tuple of Frame
         Slot 0 holds, at every pixel, the first group of samples landing there; slot k the
         (k+1)-th. Empty entries are black with alpha 0.
+    counts : tuple of (H, W, 1) float32
+        Per slot, how many samples each entry holds (splatted like the colour, the sample
+        density of the normalised reconstruction).
     dropped : int
         Samples whose y' lies outside the image.
     max_shift_px : float
@@ -47,6 +50,7 @@ class Recentred:
     """
 
     frames: tuple
+    counts: tuple
     dropped: int
     max_shift_px: float
 
@@ -123,7 +127,7 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0) -> Recentre
     entry_target = target[np.unique(entry, return_index=True)[1]]
     first = np.r_[0, np.flatnonzero(np.diff(entry_target)) + 1]
     slot = np.arange(n) - np.repeat(first, np.diff(np.r_[first, n]))
-    frames = []
+    frames, counts = [], []
     for k in range(int(slot.max(initial=-1)) + 1):
         sel = slot == k
         t = entry_target[sel]
@@ -134,6 +138,9 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0) -> Recentre
         f_z = np.full(h * w, np.inf)
         with np.errstate(divide="ignore"):
             f_z[t] = 1.0 / inv_z[sel]
+        f_n = np.zeros(h * w, np.float32)
+        f_n[t] = count[sel]
+        counts.append(f_n.reshape(h, w, 1))
         f_m = None
         if flow is not None:
             f_m = np.zeros((h * w, 2), np.float32)
@@ -141,4 +148,4 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0) -> Recentre
         frames.append(Frame(f_rgb.reshape(h, w, nc), f_z.reshape(h, w).astype(np.float32),
                             alpha=f_a.reshape(h, w),
                             motion=None if f_m is None else f_m.reshape(h, w, 2)))
-    return Recentred(tuple(frames), int(h * w - src.size), float(np.abs(shift).max(initial=0.0)))
+    return Recentred(tuple(frames), tuple(counts), int(h * w - src.size), float(np.abs(shift).max(initial=0.0)))

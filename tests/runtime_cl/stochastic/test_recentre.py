@@ -100,3 +100,21 @@ def test_bad_channels_name_the_channel_value_and_fix():
         lens_time_samples({k: good[k] for k in ("lens.U", "lens.V")}, "in.exr", (4, 4))
     with pytest.raises(InputError, match="stochastic_splat.*needs the channels"):
         run_pass("stochastic_splat", Frame(np.ones((4, 4, 3)), np.ones((4, 4))), CAMERA, disc_database(4.0))
+
+
+def test_normalised_reconstruction_of_a_flat_plane_is_flat():
+    """A constant plane at a 4-px CoC: the plain sum carries the random sample density (about
+    1 / sqrt(pi 4^2) = 14 % per pixel), the density-normalised one is the constant."""
+    rng = np.random.default_rng(4)
+    samples = rng.random((SIZE, SIZE, 3)).astype(np.float32)
+    frame = Frame(np.full((SIZE, SIZE, 3), 0.5, np.float32), np.full((SIZE, SIZE), _depth_for(4.0), np.float32),
+                  samples=samples)
+    db = disc_database(r_max=10.0, samples=64)
+    inner = (slice(12, -12), slice(12, -12))       # away from the border, where samples leave the frame
+    plain, _ = run_pass("stochastic_splat", frame, CAMERA, db)
+    normal, _ = run_pass("stochastic_splat", frame, CAMERA, db, normalize=True)
+    assert plain[inner].mean() == pytest.approx(0.5, rel=0.02)      # unbiased: the mean density is 1
+    assert plain[inner].std() > 0.02
+    np.testing.assert_allclose(normal[inner], 0.5, rtol=1e-4)        # float32 splat sums
+    with pytest.raises(InputError, match="min_density = 0"):
+        run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, min_density=0)

@@ -34,7 +34,7 @@ class _Stochastic:
 
     channels = ("R", "G", "B", "Z") + CHANNELS
 
-    def configure(self, *, normalize: bool = False, min_density: float = 0.5, **options):
+    def configure(self, *, normalize: bool = False, min_density: float = 0.25, **options):
         if not isinstance(normalize, bool):
             raise InputError(f"normalize = {normalize!r}: give True (divide by the splatted sample density) "
                              "or False (LSR18's plain sum)")

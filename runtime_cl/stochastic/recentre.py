@@ -14,7 +14,8 @@ Samples are rounded to the nearest pixel (the box filter of a pinhole image) and
 averaged: a pixel of the input is one sample of its pinhole point's light, so k samples landing
 on one pixel carry k pixels' worth of that light, and a pixel no sample lands on is dark. A
 target pixel can receive samples of different surfaces (an edge seen past a blurred occluder):
-samples whose CoCs agree within ``coc_bin_px`` share one entry (their depth and motion averaged);
+samples whose CoCs and motions agree within ``coc_bin_px`` and ``motion_bin_px`` share one entry
+(their depth and motion averaged);
 the others go to further frames (*slots*), so each surface keeps its own PSF. The frames are
 splatted separately and summed (splatting is linear). Samples whose y' leaves the image are
 dropped, as a pinhole input holds nothing outside the frame.
@@ -82,7 +83,7 @@ def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
     return np.stack([px, py], axis=-1)
 
 
-def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0) -> Recentred:
+def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_px: float = 1.0) -> Recentred:
     """Re-centre a stochastic ``frame`` (its per-pixel ``samples``: lens.U, lens.V, time).
 
     Parameters
@@ -92,8 +93,10 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0) -> Recentre
     samples : (H, W, 3) float32
         Checked ``lens.U, lens.V, time`` in [0, 1).
     camera : runtime camera
-    coc_bin_px : float
-        Samples landing on one pixel with CoCs within this many pixels share an entry.
+    coc_bin_px, motion_bin_px : float
+        Samples landing on one pixel share an entry when their CoCs, and each component of their
+        motion vectors, fall in the same bin of this many pixels (a light and the wall behind it
+        have nearly the same CoC but not the same motion).
 
     Returns
     -------
@@ -111,11 +114,14 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0) -> Recentre
     src = np.flatnonzero(inside)
     target = (ty[src] * w + tx[src]).astype(np.int64)
     coc = np.asarray(camera.coc_radius_px(depth, w), np.float64).ravel()[src]
-    group = np.round(coc / coc_bin_px).astype(np.int64)
-    # one entry per (target pixel, CoC group): sums of colour and alpha, means of 1/Z and motion
-    key = target * (2 * (np.abs(group).max(initial=0) + 1)) + group
-    keys, entry, count = np.unique(key, return_inverse=True, return_counts=True)
-    n = keys.size
+    # one entry per (target pixel, CoC group, motion group): sums of colour and alpha, means of
+    # 1/Z and motion; rows sort by target pixel first
+    groups = [target, np.round(coc / coc_bin_px).astype(np.int64)]
+    if motion is not None:
+        groups += [np.round(motion[..., k].ravel()[src] / motion_bin_px).astype(np.int64) for k in range(2)]
+    keys, entry, count = np.unique(np.stack(groups, axis=1), axis=0, return_inverse=True, return_counts=True)
+    entry = entry.ravel()
+    n = keys.shape[0]
     col = np.zeros((n, nc), np.float64)
     np.add.at(col, entry, rgb.reshape(-1, nc)[src])
     cov = np.bincount(entry, alpha.ravel()[src], n)

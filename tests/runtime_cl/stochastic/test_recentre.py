@@ -147,3 +147,17 @@ def test_reconstruction_is_unbiased_on_a_textured_plane():
     # texture); the mean of 48 leaves ~0.015: 4 sigma per pixel, and no bias in the mean
     assert np.abs(diff).max() < 0.07
     assert abs(diff.mean()) < 0.005
+
+
+def test_samples_of_different_motion_keep_their_own_entries():
+    """A moving light and the static wall behind it, at nearly one depth, landing on one pixel:
+    each keeps its motion (averaged, the light's streak would take the wall's zero motion in)."""
+    depth = np.full((1, 3), 2.0, np.float32)
+    motion = np.array([[[0.0, 0.0], [0.0, 0.0], [22.0, 0.0]]], np.float32)
+    samples = np.array([[[0.5, 0.5, 0.5], [0.5, 0.5, 0.5], [0.5, 0.5, 0.5 + 2.0 / 22.0]]], np.float32)
+    frame = Frame(np.ones((1, 3, 1), np.float32), depth, motion=motion, samples=samples)
+    rec = recentre(frame, samples, CAMERA)        # pixel 2's sample moves back 2 px onto pixel 0
+    assert len(rec.frames) == 2
+    got = sorted(float(f.motion[0, 0, 0]) for f in rec.frames)
+    assert got == pytest.approx([0.0, 22.0])
+    assert sum(float(n[0, 0, 0]) for n in rec.counts) == 2.0

@@ -40,7 +40,8 @@ class Recentred:
     ----------
     frames : tuple of Frame
         Slot 0 holds, at every pixel, the first group of samples landing there; slot k the
-        (k+1)-th. Empty entries are black with alpha 0.
+        (k+1)-th. Empty entries are black with alpha 0 and the input's depth at that pixel (so
+        their PSF coordinates stay in the range of a database sized for the input).
     counts : tuple of (H, W, 1) float32
         Per slot, how many samples each entry holds (splatted like the colour, the sample
         density of the normalised reconstruction).
@@ -141,7 +142,7 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         f_rgb[t] = col[sel]
         f_a = np.zeros(h * w, np.float32)
         f_a[t] = np.minimum(cov[sel], 1.0)
-        f_z = np.full(h * w, np.inf)
+        f_z = depth.ravel().copy()   # empty entries keep the input's depth: inside any range it fits
         with np.errstate(divide="ignore"):
             f_z[t] = 1.0 / inv_z[sel]
         f_n = np.zeros(h * w, np.float32)

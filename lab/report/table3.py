@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import html
 import json
+import re
 import time
 from dataclasses import replace
 from datetime import datetime, timezone
@@ -195,7 +196,13 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
 
 
 def render_html(data: dict) -> str:
-    cols = sorted({k for r in data["scenes"] for k in r["methods"]})
+    order = ["input", "bm3d"] + [name + suffix for name, _, suffix in METHODS]
+    found = {k for r in data["scenes"] for k in r["methods"]}
+    def rank(label):   # "name[:model][+norm]@spp" -> (spp, method order, label)
+        method = re.sub(r":[^+]*", "", label.rpartition("@")[0])
+        return label.rpartition("@")[2], order.index(method) if method in order else len(order), label
+
+    cols = sorted(found, key=rank)
     head = "<tr><th>scene</th><th>size</th><th>paths per camera ray</th><th>reference spp, noise floor</th>" + "".join(f"<th>{html.escape(c)} SSIM</th>" for c in cols) + \
            "<th>LSR18: spreadlets / BM3D / Splat</th></tr>"
     body = []

@@ -193,7 +193,7 @@ def cmd_render(args) -> int:
     if args.far_db is not None:
         options["far_field"] = SpreadletDatabase.load(args.far_db, expect_model="volume_far")
         check_header(options["far_field"], image.camera, f"{args.input} camera")
-    frame = frame_of(image, str(args.input), db, options.get("layered_input", False))
+    frame = frame_of(image, str(args.input), db, options.get("layered_input", False), "lens.U" in cls.channels)
     rendered, timing = run_pass(args.method, frame, runtime_camera(image, f"{args.input} camera"), db, **options)
     write_rgb(args.out, rendered[..., :3])
     if cls.draws_aperture:

@@ -31,9 +31,11 @@ def read_motion(image, path, model: str) -> np.ndarray:
     return np.stack([image.extra["motion.X"], image.extra["motion.Y"]], axis=-1)
 
 
-def frame_of(image, source: str = "input", db=None, layered_input: bool = False) -> Frame:
+def frame_of(image, source: str = "input", db=None, layered_input: bool = False,
+             stochastic: bool = False) -> Frame:
     """The runtime's :class:`~runtime_cl.frame.Frame` of a :class:`lab.exr_io.LabelledImage`:
-    motion when ``db`` is a motion database, the ``layerN.*`` layers when ``layered_input``."""
+    motion when ``db`` is a motion database, the ``layerN.*`` layers when ``layered_input``, the
+    checked ``lens.U, lens.V, time`` when ``stochastic`` (a pass reading them)."""
     from runtime_cl.coords.maps import needs_motion
 
     motion = read_motion(image, source, db.model) if db is not None and needs_motion(db.model) else None
@@ -44,8 +46,13 @@ def frame_of(image, source: str = "input", db=None, layered_input: bool = False)
             raise UserError(f"{source}: the input has no layerN.* channels; render it with layers (a scene "
                             "whose [[shapes]] have a layer key) or splat the flat image")
         layers = tuple(Frame(x.rgb, x.depth, alpha=x.alpha) for x in found)
+    samples = None
+    if stochastic:
+        from runtime_cl.stochastic import lens_time_samples
+
+        samples = lens_time_samples(image.extra, source, image.depth.shape)
     return Frame(image.rgb, image.depth, alpha=image.alpha, motion=motion, layers=layers,
-                 guard_px=image.guard_px)
+                 guard_px=image.guard_px, samples=samples)
 
 
 def camera_aperture(image, source: str = "input camera header", directions_m: int = 2, edges=None):
@@ -103,7 +110,8 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
             if db is not None:
                 check_header(db, image.camera)
             key = label if len(candidates) == 1 else f"{label}:{db.model}"
-            frame = frame_of(image, db=db, layered_input=options.get("layered_input", False))
+            frame = frame_of(image, db=db, layered_input=options.get("layered_input", False),
+                             stochastic="lens.U" in cls.channels)
             extra = {"far_field": far} if far is not None and cls.far_field and db.model == "volume" else {}
             rendered, timing = run_pass(name, frame, camera, db, runs=runs, **options, **extra)
             entry = dict(timing.to_json(), **{"pass": name})

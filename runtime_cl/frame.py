@@ -30,6 +30,8 @@ class Frame:
         Guard band (LSR18 "Boundary"): the pixels are the frame plus this margin on every side,
         so blur from outside the frame comes in; :func:`runtime_cl.passes.run_pass` renders them
         all and crops the margin off the result.
+    samples : array_like, (H, W, 3), optional
+        ``lens.U, lens.V, time`` of a stochastic (1-spp) input (:mod:`runtime_cl.stochastic`).
     """
 
     rgb: np.ndarray
@@ -38,6 +40,7 @@ class Frame:
     motion: np.ndarray | None = None
     layers: tuple = ()
     guard_px: int = 0
+    samples: np.ndarray | None = None
 
     def __post_init__(self):
         rgb, depth = np.asarray(self.rgb), np.asarray(self.depth)
@@ -50,6 +53,9 @@ class Frame:
         if self.motion is not None and np.shape(self.motion) != (h, w, 2):
             raise InputError(f"motion: shape {np.shape(self.motion)}, need (H, W, 2) = {(h, w, 2)} "
                              "(motion.X, motion.Y in pixels, Y up)")
+        if self.samples is not None and np.shape(self.samples) != (h, w, 3):
+            raise InputError(f"samples: shape {np.shape(self.samples)}, need (H, W, 3) = {(h, w, 3)} "
+                             "(lens.U, lens.V, time)")
         object.__setattr__(self, "layers", tuple(self.layers))
         g = self.guard_px
         if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0 or (g and 2 * g >= min(h, w)):

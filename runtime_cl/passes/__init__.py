@@ -7,6 +7,7 @@ from runtime_cl.passes import spreadlets  # noqa: F401  (registers "spreadlets",
 from runtime_cl.passes import polygon  # noqa: F401  (registers "polygon")
 from runtime_cl.passes import layered  # noqa: F401  (registers "layered")
 from runtime_cl.passes import identity  # noqa: F401  (registers "identity")
+from runtime_cl.passes import stochastic  # noqa: F401  (registers "stochastic_spreadlets", "stochastic_splat")
 from runtime_cl.passes.registry import (RuntimePass, get_pass, integrating_passes, pass_names, register_pass,
                                        run_pass)
 

@@ -1,0 +1,88 @@
+"""Reconstruction from a stochastic (1-spp) image: LSR18's spreadlets and Splat on re-centred samples.
+
+The input already holds depth of field and motion blur, sampled once per pixel; its channels
+``lens.U, lens.V, time`` say where on the lens and when. :func:`runtime_cl.stochastic.recentre`
+moves every pixel back to its surface's position at the lens centre and mid-shutter (LSR18 6.2,
+Fig. 7 d-e) as a few frames (slots), which the ordinary spreadlet or Splat pass splats; the sum
+is the reconstruction. Splatting the input as it is would apply the blur twice (Fig. 7 c).
+
+Option ``normalize`` (default False: LSR18's plain sum) also splats each entry's sample count
+with the same PSFs and divides the colour by that density (at least ``min_density``): the
+re-centred samples of one surface lie at random places, so their plain sum fluctuates by about
+1 / sqrt(pi r^2) of a CoC of radius r even where the colour is constant; the ratio does not.
+Where surfaces of different depths mix (a focused background behind a blurred occluder) the
+ratio leans towards the blurred surface, so it trades that noise for a bias there.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+from runtime_cl.passes.registry import register_pass
+from runtime_cl.passes.spreadlets import SplatPass, SpreadletsPass
+from runtime_cl.stochastic import CHANNELS, recentre
+from runtime_cl.timing import CallTimes
+
+__all__ = ["StochasticSpreadletsPass", "StochasticSplatPass"]
+
+
+class _Stochastic:
+    """Re-centre in ``prepare`` (not timed, like the other passes' per-pixel parameters); each
+    call splats every slot with the base pass and sums."""
+
+    channels = ("R", "G", "B", "Z") + CHANNELS
+
+    def configure(self, *, normalize: bool = False, min_density: float = 0.25, **options):
+        if not isinstance(normalize, bool):
+            raise InputError(f"normalize = {normalize!r}: give True (divide by the splatted sample density) "
+                             "or False (LSR18's plain sum)")
+        if isinstance(min_density, bool) or not (isinstance(min_density, (int, float)) and 0 < min_density <= 1):
+            raise InputError(f"min_density = {min_density!r}: give a number in (0, 1], the least density "
+                             "the normalised reconstruction divides by")
+        self.normalize, self.min_density = normalize, float(min_density)
+        super().configure(**options)
+
+    def prepare(self, frame):
+        if frame.samples is None:
+            raise InputError(f"the {self.name!r} pass reconstructs a stochastic image: it needs the channels "
+                             f"{list(CHANNELS)}; give the labelled image those channels, or splat a pinhole "
+                             "image with the plain pass")
+        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera)
+        base = super(_Stochastic, self).prepare
+        parts = [base(f) for f in rec.frames]
+        density = [base(replace(f, rgb=n)) for f, n in zip(rec.frames, rec.counts)] if self.normalize else []
+        return rec, parts, density
+
+    def _sum(self, parts, counts: dict):
+        total, device, transfer = None, 0.0, 0.0
+        for part in parts:
+            image, t = super(_Stochastic, self).__call__(part)
+            total = image if total is None else total + image
+            device, transfer = device + t.device_ms, transfer + t.transfer_ms
+            for k, v in t.counts.items():
+                counts[k] = counts.get(k, 0) + v
+        return total, device, transfer
+
+    def __call__(self, prepared):
+        rec, parts, density = prepared
+        counts = {}
+        total, device, transfer = self._sum(parts, counts)
+        if density:
+            weight, d2, t2 = self._sum(density, {})
+            total = total / np.maximum(weight, self.min_density)   # host work: in the call's time
+            device, transfer = device + d2, transfer + t2
+        counts.update(slots=len(parts), dropped_samples=rec.dropped)
+        return total, CallTimes(device_ms=device, transfer_ms=transfer, counts=counts)
+
+
+@register_pass("stochastic_spreadlets")
+class StochasticSpreadletsPass(_Stochastic, SpreadletsPass):
+    summary = "spreadlets on a stochastic 1-spp image, each pixel re-centred by its lens sample and time"
+
+
+@register_pass("stochastic_splat")
+class StochasticSplatPass(_Stochastic, SplatPass):
+    summary = "dense Splat on a stochastic 1-spp image, each pixel re-centred by its lens sample and time"
+    timing_reference = False

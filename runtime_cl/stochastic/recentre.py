@@ -1,0 +1,158 @@
+"""Re-centring a stochastic image (LSR18 6.2, Fig. 7 d-e): every pixel back to the film position
+y' its surface has at the lens centre and mid-shutter, as a stack of ordinary frames.
+
+A pixel at y with lens point d (:func:`~runtime_cl.stochastic.samples.concentric_disc`) and
+shutter time t saw a surface whose pinhole position at mid-shutter is
+
+    y' = y - c(Z) d - m (t - 1/2)
+
+(c: the camera's signed CoC radius in pixels at the pixel's depth Z; m: its motion over the
+shutter in film axes). Splatting each pixel's PSF around y' instead of y draws the blur once:
+the samples of one surface point, spread over its CoC in the input, all return to one place.
+
+Samples are rounded to the nearest pixel (the box filter of a pinhole image) and summed, not
+averaged: a pixel of the input is one sample of its pinhole point's light, so k samples landing
+on one pixel carry k pixels' worth of that light, and a pixel no sample lands on is dark. A
+target pixel can receive samples of different surfaces (an edge seen past a blurred occluder):
+samples whose CoCs and motions agree within ``coc_bin_px`` and ``motion_bin_px`` share one entry
+(their depth and motion averaged);
+the others go to further frames (*slots*), so each surface keeps its own PSF. The frames are
+splatted separately and summed (splatting is linear). Samples whose y' leaves the image are
+dropped, as a pinhole input holds nothing outside the frame.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from runtime_cl.frame import Frame
+from runtime_cl.stochastic.samples import concentric_disc
+
+__all__ = ["Recentred", "recentre", "pinhole_positions"]
+
+
+@dataclass(frozen=True)
+class Recentred:
+    """The re-centred samples as frames to splat and sum.
+
+    Attributes
+    ----------
+    frames : tuple of Frame
+        Slot 0 holds, at every pixel, the first group of samples landing there; slot k the
+        (k+1)-th. Empty entries are black with alpha 0 and the input's depth at that pixel (so
+        their PSF coordinates stay in the range of a database sized for the input).
+    counts : tuple of (H, W, 1) float32
+        Per slot, how many samples each entry holds (splatted like the colour, the sample
+        density of the normalised reconstruction).
+    dropped : int
+        Samples whose y' lies outside the image.
+    max_shift_px : float
+        The largest |y' - y|.
+    """
+
+    frames: tuple
+    counts: tuple
+    dropped: int
+    max_shift_px: float
+
+
+def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
+    """(H, W, 2) float64 film positions y' (x right, y down; pixel centres at i + 0.5) of every
+    pixel's surface at the lens centre and mid-shutter.
+
+    Parameters
+    ----------
+    depth : (H, W)
+        Planar depth Z in metres of what each sample saw.
+    samples : (H, W, 3)
+        ``lens.U, lens.V, time`` (:func:`~runtime_cl.stochastic.samples.lens_time_samples`).
+    camera : runtime camera
+        Its ``coc_radius_px(z, width)`` gives the signed CoC (0 for a pinhole).
+    motion : (H, W, 2), optional
+        ``motion.X, motion.Y`` in pixels over the shutter, Y up.
+    """
+    h, w = np.shape(depth)
+    dx, dy = concentric_disc(samples[..., 0], samples[..., 1])
+    c = np.asarray(camera.coc_radius_px(np.asarray(depth, np.float64), w), np.float64)
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
+    px, py = xs - c * dx, ys - c * dy
+    if motion is not None:
+        lag = samples[..., 2].astype(np.float64) - 0.5
+        px = px - motion[..., 0] * lag
+        py = py + motion[..., 1] * lag          # motion Y is up, film y down
+    return np.stack([px, py], axis=-1)
+
+
+def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_px: float = 1.0) -> Recentred:
+    """Re-centre a stochastic ``frame`` (its per-pixel ``samples``: lens.U, lens.V, time).
+
+    Parameters
+    ----------
+    frame : Frame
+        The 1-spp image: colour, depth Z of what each pixel's sample saw, optional motion and alpha.
+    samples : (H, W, 3) float32
+        Checked ``lens.U, lens.V, time`` in [0, 1).
+    camera : runtime camera
+    coc_bin_px, motion_bin_px : float
+        Samples landing on one pixel share an entry when their CoCs, and each component of their
+        motion vectors, fall in the same bin of this many pixels (a light and the wall behind it
+        have nearly the same CoC but not the same motion).
+
+    Returns
+    -------
+    Recentred
+    """
+    rgb = np.asarray(frame.rgb, np.float32)
+    h, w, nc = rgb.shape
+    depth = np.asarray(frame.depth, np.float64)
+    alpha = frame.coverage()
+    motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
+    pos = pinhole_positions(depth, samples, camera, motion)
+    shift = pos - (np.stack(np.mgrid[0:h, 0:w][::-1], axis=-1) + 0.5)
+    tx, ty = np.floor(pos[..., 0]).ravel(), np.floor(pos[..., 1]).ravel()
+    inside = (tx >= 0) & (tx < w) & (ty >= 0) & (ty < h)
+    src = np.flatnonzero(inside)
+    target = (ty[src] * w + tx[src]).astype(np.int64)
+    coc = np.asarray(camera.coc_radius_px(depth, w), np.float64).ravel()[src]
+    # one entry per (target pixel, CoC group, motion group): sums of colour and alpha, means of
+    # 1/Z and motion; rows sort by target pixel first
+    groups = [target, np.round(coc / coc_bin_px).astype(np.int64)]
+    if motion is not None:
+        groups += [np.round(motion[..., k].ravel()[src] / motion_bin_px).astype(np.int64) for k in range(2)]
+    keys, entry, count = np.unique(np.stack(groups, axis=1), axis=0, return_inverse=True, return_counts=True)
+    entry = entry.ravel()
+    n = keys.shape[0]
+    col = np.zeros((n, nc), np.float64)
+    np.add.at(col, entry, rgb.reshape(-1, nc)[src])
+    cov = np.bincount(entry, alpha.ravel()[src], n)
+    inv_z = np.bincount(entry, 1.0 / depth.ravel()[src], n) / count
+    flow = None
+    if motion is not None:
+        flow = np.stack([np.bincount(entry, motion[..., k].ravel()[src], n) / count for k in range(2)], axis=-1)
+    # entries sorted by key are grouped by target pixel; the rank within the pixel is the slot
+    entry_target = target[np.unique(entry, return_index=True)[1]]
+    first = np.r_[0, np.flatnonzero(np.diff(entry_target)) + 1]
+    slot = np.arange(n) - np.repeat(first, np.diff(np.r_[first, n]))
+    frames, counts = [], []
+    for k in range(int(slot.max(initial=-1)) + 1):
+        sel = slot == k
+        t = entry_target[sel]
+        f_rgb = np.zeros((h * w, nc), np.float32)
+        f_rgb[t] = col[sel]
+        f_a = np.zeros(h * w, np.float32)
+        f_a[t] = np.minimum(cov[sel], 1.0)
+        f_z = depth.ravel().copy()   # empty entries keep the input's depth: inside any range it fits
+        with np.errstate(divide="ignore"):
+            f_z[t] = 1.0 / inv_z[sel]
+        f_n = np.zeros(h * w, np.float32)
+        f_n[t] = count[sel]
+        counts.append(f_n.reshape(h, w, 1))
+        f_m = None
+        if flow is not None:
+            f_m = np.zeros((h * w, 2), np.float32)
+            f_m[t] = flow[sel]
+        frames.append(Frame(f_rgb.reshape(h, w, nc), f_z.reshape(h, w).astype(np.float32),
+                            alpha=f_a.reshape(h, w),
+                            motion=None if f_m is None else f_m.reshape(h, w, 2)))
+    return Recentred(tuple(frames), tuple(counts), int(h * w - src.size), float(np.abs(shift).max(initial=0.0)))

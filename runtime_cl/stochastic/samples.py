@@ -1,0 +1,81 @@
+"""The stochastic channels of a labelled-pixel image: ``lens.U``, ``lens.V`` and ``time``.
+
+Contract (DESIGN.md, labelled-pixel image): each pixel holds ONE path sample (a 1-spp image).
+``lens.U, lens.V`` in [0, 1) are its lens sample; its point on the unit aperture disc is the
+concentric map (Shirley-Chiu, Mitsuba's ``square_to_uniform_disk_concentric``) in the film's
+pixel axes, x right and y down: :func:`concentric_disc`. ``time`` in [0, 1) is its shutter time
+as a fraction of the shutter. A surface that the pinhole at the lens centre sees at film position
+y' (in pixels) at time t is seen through lens point d at y = y' + c(Z) d, c the signed CoC
+radius in pixels (positive behind the focus plane), and moves on the film by the motion vector
+times t over the shutter.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+
+__all__ = ["CHANNELS", "concentric_disc", "inverse_concentric", "lens_time_samples"]
+
+CHANNELS = ("lens.U", "lens.V", "time")
+_FIX = ("write the pixel's lens sample (lens.U, lens.V) and its shutter time as a fraction of the shutter "
+        "(time), each in [0, 1), e.g. with `splatlab stochastic SCENE`")
+
+
+def concentric_disc(u, v) -> tuple:
+    """Shirley-Chiu concentric map of [0, 1)^2 onto the unit disc (area preserving): (dx, dy)."""
+    a, b = 2.0 * np.asarray(u, np.float64) - 1.0, 2.0 * np.asarray(v, np.float64) - 1.0
+    steep = np.abs(a) < np.abs(b)
+    r = np.where(steep, b, a)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = 0.25 * np.pi * np.where(steep, a, b) / r
+    phi = np.where(steep, 0.5 * np.pi - phi, phi)
+    phi = np.where(r == 0.0, 0.0, phi)
+    return r * np.cos(phi), r * np.sin(phi)
+
+
+def inverse_concentric(dx, dy) -> tuple:
+    """The (u, v) in [0, 1)^2 that :func:`concentric_disc` maps to the disc point (dx, dy)."""
+    x, y = np.asarray(dx, np.float64), np.asarray(dy, np.float64)
+    r = np.hypot(x, y)
+    phi = np.arctan2(y, x)
+    # wedge |phi| <= pi/4 (r = a > 0), its mirror around pi (r = a < 0), and the two steep wedges
+    a, b = np.empty_like(r), np.empty_like(r)
+    right, left = np.abs(phi) <= 0.25 * np.pi, np.abs(phi) >= 0.75 * np.pi
+    up = ~right & ~left & (phi > 0)
+    down = ~right & ~left & (phi <= 0)
+    a[right], b[right] = r[right], r[right] * phi[right] / (0.25 * np.pi)
+    pl = np.where(phi[left] > 0, phi[left] - np.pi, phi[left] + np.pi)
+    a[left], b[left] = -r[left], -r[left] * pl / (0.25 * np.pi)
+    b[up], a[up] = r[up], r[up] * (0.5 * np.pi - phi[up]) / (0.25 * np.pi)
+    pd = phi[down] + np.pi
+    b[down], a[down] = -r[down], -r[down] * (0.5 * np.pi - pd) / (0.25 * np.pi)
+    u, v = 0.5 * (a + 1.0), 0.5 * (b + 1.0)
+    top = np.nextafter(1.0, 0.0)
+    return np.minimum(u, top), np.minimum(v, top)
+
+
+def lens_time_samples(channels: dict, source: str, shape: tuple) -> np.ndarray:
+    """The checked ``(H, W, 3)`` float32 stack of :data:`CHANNELS` from ``channels`` (name -> (H, W)).
+
+    Raises
+    ------
+    InputError
+        A channel is missing, of another size, not finite or outside [0, 1): one line naming
+        ``source``, the channel, the bad value and the fix.
+    """
+    missing = [c for c in CHANNELS if c not in channels]
+    if missing:
+        raise InputError(f"{source}: channel(s) {missing} missing; a stochastic input needs {list(CHANNELS)}: {_FIX}")
+    out = np.empty(tuple(shape) + (3,), np.float32)
+    for k, name in enumerate(CHANNELS):
+        ch = np.asarray(channels[name], np.float32)
+        if ch.shape != tuple(shape):
+            raise InputError(f"{source}: channel {name} is {ch.shape}, the image is {tuple(shape)}; {_FIX}")
+        bad = ~(np.isfinite(ch) & (ch >= 0.0) & (ch < 1.0))
+        if bad.any():
+            y, x = np.argwhere(bad)[0]
+            raise InputError(f"{source}: channel {name} = {float(ch[y, x])!r} at pixel (x={x}, y={y}) "
+                             f"({int(bad.sum())} pixel(s)) lies outside [0, 1); {_FIX}")
+        out[..., k] = ch
+    return out

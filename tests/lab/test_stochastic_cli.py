@@ -1,0 +1,55 @@
+"""`splatlab render --method stochastic_*` on a stochastic EXR, and its bad inputs (exit 2, one line)."""
+import numpy as np
+import pytest
+
+from lab.cli import main
+from lab.exr_io import LabelledImage, read_rgb, write_labelled
+from runtime_cl.psf.synthetic import disc_database
+
+THIN = {"lens": "thin", "focal_length_mm": 50.0, "f_number": 2.0, "focus_distance_m": 3.0,
+        "sensor_width_mm": 36.0, "shutter": [0.0, 1.0]}
+
+
+def _write(path, **channels):
+    rng = np.random.default_rng(0)
+    extra = {"lens.U": rng.random((12, 12), dtype=np.float32), "lens.V": rng.random((12, 12), dtype=np.float32),
+             "time": rng.random((12, 12), dtype=np.float32)}
+    for name, value in channels.items():
+        if value is None:
+            del extra[name]
+        else:
+            extra[name][3, 5] = value
+    write_labelled(path, LabelledImage(rng.random((12, 12, 3), dtype=np.float32), np.ones((12, 12), np.float32),
+                                       rng.uniform(1, 9, (12, 12)).astype(np.float32), dict(THIN), extra))
+
+
+@pytest.fixture
+def work(tmp_path, monkeypatch):
+    monkeypatch.setenv("SPLATLAB_CACHE", str(tmp_path / "cache"))
+    disc_database(6.0, samples=6).save(tmp_path / "db.spdb")
+    return tmp_path
+
+
+@pytest.mark.parametrize("method", ["stochastic_spreadlets", "stochastic_splat"])
+def test_render_a_stochastic_exr(work, method, capfd):
+    _write(work / "in.exr")
+    assert main(["render", str(work / "in.exr"), "--method", method, "--db", str(work / "db.spdb"),
+                 "--out", str(work / "o.exr")]) == 0
+    out = read_rgb(work / "o.exr")
+    assert out.shape == (12, 12, 3) and np.isfinite(out).all() and out.sum() > 0
+
+
+@pytest.mark.parametrize("channels, needles", [
+    ({"lens.U": 1.5}, ["channel lens.U = 1.5", "pixel (x=5, y=3)", "outside [0, 1)", "lens sample"]),
+    ({"lens.V": -0.25}, ["channel lens.V = -0.25", "outside [0, 1)"]),
+    ({"time": None}, ["channel(s) ['time'] missing", "shutter time"]),
+])
+def test_bad_stochastic_exr(work, capfd, channels, needles):
+    _write(work / "in.exr", **channels)
+    code = main(["render", str(work / "in.exr"), "--method", "stochastic_spreadlets", "--db", str(work / "db.spdb"),
+                 "--out", str(work / "o.exr")])
+    err = capfd.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, (code, err)
+    assert not (work / "o.exr").exists()
+    for needle in [str(work / "in.exr")] + needles:
+        assert needle in err[0], (needle, err[0])

@@ -19,7 +19,7 @@ from __future__ import annotations
 import functools
 
 from .backend import mitsuba
-from .python_sensor import point_bbox, ray_differential
+from .python_sensor import clipped_ray, point_bbox, ray_differential
 
 PLUGIN = "splatlab_aperture_thinlens"
 SHAPE_PARAMS = ("blades", "rotation_deg", "rounding", "path")   # plugin properties an aperture takes
@@ -62,13 +62,7 @@ def register() -> str:
             aperture_p = mi.Point3f(-self.radius * mi.Float(lens.x), self.radius * mi.Float(lens.y), 0.0)
             focus_p = near_p * (self.focus / near_p.z)
             d = dr.normalize(mi.Vector3f(focus_p - aperture_p))
-            to_world = self.world_transform()
-            direction = to_world @ mi.Vector3f(d)
-            inv_z = dr.rcp(d.z)
-            near_t, far_t = self.near * inv_z, self.far * inv_z
-            origin = to_world @ mi.Point3f(aperture_p) + direction * near_t
-            ray = mi.Ray3f(mi.Point3f(origin), direction, far_t - near_t, time, mi.Color0f())
-            return ray, mi.Spectrum(1.0)
+            return clipped_ray(self, aperture_p, d, time), mi.Spectrum(1.0)
 
         sample_ray_differential = ray_differential
         bbox = point_bbox

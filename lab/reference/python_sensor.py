@@ -1,11 +1,12 @@
 """What every Python ``mi.Sensor`` of the lab shares (the thin lens through an aperture shape,
-the thick lens): a ray differential without differentials, and a point bounding box at the
-sensor's origin. Assign them in the class body: ``sample_ray_differential = ray_differential``."""
+the tilted thin lens, the thick lens): a ray differential without differentials, a point bounding
+box at the sensor's origin (assign them in the class body: ``sample_ray_differential =
+ray_differential``), and a thin lens's camera-space ray clipped to the near and far planes."""
 from __future__ import annotations
 
 from .backend import mitsuba
 
-__all__ = ["point_bbox", "ray_differential"]
+__all__ = ["clipped_ray", "point_bbox", "ray_differential"]
 
 
 def ray_differential(self, time, sample1, sample2, sample3, active=True):
@@ -19,3 +20,17 @@ def point_bbox(self):
     mi = mitsuba()
     p = self.world_transform() @ mi.Point3f(0.0, 0.0, 0.0)
     return mi.ScalarBoundingBox3f(mi.ScalarPoint3f(p.x[0], p.y[0], p.z[0]))
+
+
+def clipped_ray(self, lens_point, d, time):
+    """The world ray from camera-space ``lens_point`` along the unit camera-space direction ``d``
+    (d.z > 0), starting at the sensor's near plane and ending at its far plane."""
+    mi = mitsuba()
+    import drjit as dr
+
+    to_world = self.world_transform()
+    direction = to_world @ mi.Vector3f(d)
+    inv_z = dr.rcp(d.z)
+    near_t, far_t = self.near * inv_z, self.far * inv_z
+    origin = to_world @ mi.Point3f(lens_point) + direction * near_t
+    return mi.Ray3f(mi.Point3f(origin), direction, far_t - near_t, time, mi.Color0f())

@@ -22,7 +22,7 @@ import functools
 import math
 
 from .backend import mitsuba
-from .python_sensor import point_bbox, ray_differential
+from .python_sensor import clipped_ray, point_bbox, ray_differential
 
 PLUGIN = "splatlab_tilted_thinlens"
 
@@ -64,13 +64,7 @@ def register() -> str:
             lens = mi.Point3f(self.radius * disc.x, self.radius * disc.y, 0.0)
             inward = (lens - sensor) / v_s                               # slope (z = 1) before the lens
             d = dr.normalize(mi.Vector3f(inward.x - lens.x / self.f, inward.y - lens.y / self.f, 1.0))
-            to_world = self.world_transform()
-            direction = to_world @ mi.Vector3f(d)
-            inv_z = dr.rcp(d.z)
-            near_t, far_t = self.near * inv_z, self.far * inv_z
-            origin = to_world @ mi.Point3f(lens) + direction * near_t
-            ray = mi.Ray3f(mi.Point3f(origin), direction, far_t - near_t, time, mi.Color0f())
-            return ray, mi.Spectrum(1.0)
+            return clipped_ray(self, lens, d, time), mi.Spectrum(1.0)
 
         sample_ray_differential = ray_differential
         bbox = point_bbox

@@ -18,7 +18,7 @@ def test_pass_knobs_apply_only_where_the_pass_takes_the_option():
     assert KNOBS["layers"].skip_reason(get_pass("polygon")) is None     # the polygon pass's global layers
     assert "no depth layers of its own" in KNOBS["layers"].skip_reason(get_pass("layered"))
     assert KNOBS["traced_layers"].skip_reason(get_pass("layered")) is None
-    assert pass_accepts(get_pass("polygon"), "layers") and not pass_accepts(get_pass("filter"), "layers")
+    assert pass_accepts(get_pass("polygon"), "layers") and not pass_accepts(get_pass("identity"), "layers")
 
 
 def test_psf_knobs_need_a_database_with_the_setting():

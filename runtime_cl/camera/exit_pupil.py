@@ -88,13 +88,13 @@ class PupilBoxes:
         qx, qy = (v.ravel() for v in np.meshgrid(u, u))
         keep = qx * qx + qy * qy <= rho * rho
         qx, qy = qx[keep], qy[keep]
-        rev = lens.reversed()
+        probe = cls(lens.reversed(), last - lens.sensor_z_mm, gap, 1.0, np.zeros((0, 3)))
         radii = np.linspace(0.0, max_radius_mm, n_radii)
         box = np.zeros((n_radii, 3))
         for j, r in enumerate(radii):
             ok = np.zeros(len(qx), bool)
-            for ch in range(len(rev.eta)):
-                ok |= cls._pass(rev, last - lens.sensor_z_mm, gap, np.full_like(qx, r), np.zeros_like(qx), qx, qy, ch)
+            for ch in range(len(lens.eta)):
+                ok |= probe.trace(r, 0.0, qx, qy, ch)[2]
             if not ok.any():
                 raise InputError(f"thick lens: no ray from the sensor {r:.3g} mm off axis gets through (the image's "
                                  f"half diagonal is {max_radius_mm:.3g} mm); widen the apertures or shrink the sensor")
@@ -102,15 +102,7 @@ class PupilBoxes:
         margin = 2.0 * cell
         boxes = np.stack([np.minimum(box[:-1, 0], box[1:, 0]) - margin, np.maximum(box[:-1, 1], box[1:, 1]) + margin,
                           np.maximum(box[:-1, 2], box[1:, 2]) + margin], axis=1)
-        return cls(rev, last - lens.sensor_z_mm, gap, float(radii[1]), boxes)
-
-    @staticmethod
-    def _pass(rev: TracedLens, origin_z: float, gap: float, sx, sy, qx, qy, channel):
-        """Which backward rays from sensor points (sx, sy) aimed at plane points (qx, qy) pass."""
-        d = np.stack([qx - sx, qy - sy, np.full_like(sx, gap)], axis=1)
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        o = np.stack([sx, sy, np.full_like(sx, origin_z)], axis=1)
-        return rev.trace(o, d, channel, to_sensor=False)[2]
+        return cls(probe.lens, probe.origin_z_mm, gap, float(radii[1]), boxes)
 
     def sample(self, sx, sy, u1, u2) -> tuple:
         """Plane points for sensor points (sx, sy) from uniform u1, u2 in [0, 1) (numpy, float64):

@@ -41,35 +41,41 @@ class ThickLayerTracer(LayerTracer):
         As :class:`LayerTracer` (no cone tracing: a thick lens's ray footprints are not discs).
     """
 
+    KERNEL_FILES = ("camera/lens_trace.cl", "layered/trace.cl", "layered/thick.cl")
+    STATS_INTS = 4
+
     def __init__(self, camera, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
                  pixel_iters: int = 3, false_position: int = 0, device=None):
-        super().__init__(shape, n_layers, rays, downsample=downsample, clamp_iters=clamp_iters,
-                         pixel_iters=pixel_iters, false_position=false_position, cone=False, device=device)
         lens = TracedLens.from_camera(camera)
         if len(lens.eta) != 3:
             raise InputError(f"camera indices: {len(lens.eta)} channel(s); the layered tracer renders RGB, so the "
                              "thick lens needs indices at three wavelengths")
-        self.mm_px = camera.sensor_width_mm / self.w
-        half_diagonal = 0.5 * self.mm_px * math.hypot(self.w, self.h)
-        self.pupil = PupilBoxes.build(lens, half_diagonal)
-        self.f_px = camera.focal_px(self.w)
+        h, w = (int(s) for s in shape)
+        self.channels = len(lens.eta)
+        self.mm_px = camera.sensor_width_mm / w
+        self.pupil = PupilBoxes.build(lens, 0.5 * self.mm_px * math.hypot(w, h))
+        self.f_px = camera.focal_px(w)
         self.pupil_z = float(camera.pupil_z_mm)
-        self.coc_scale = float(camera.coc_scale_px(self.w))
-        table = self.pupil.kernel_table()
-        opts = [o for o in self.build.options] + self.pupil.lens.build_options() + [
-            f"-DNCH={len(lens.eta)}", f"-DMM_PX={self.mm_px!r}f", f"-DF_PX={self.f_px!r}f",
-            f"-DORIGIN_Z={self.pupil.origin_z_mm!r}f", f"-DLAST_Z={self.pupil.lens.sensor_z_mm!r}f",
-            f"-DPUPIL_Z={self.pupil_z!r}f", f"-DPLANE_GAP={self.pupil.plane_gap_mm!r}f", f"-DNBOX={len(table)}",
-            f"-DINV_STEP={1.0 / self.pupil.radius_step_mm!r}f"]
+        self.coc_scale = float(camera.coc_scale_px(w))
+        super().__init__(shape, n_layers, rays, downsample=downsample, clamp_iters=clamp_iters,
+                         pixel_iters=pixel_iters, false_position=false_position, cone=False, device=device)
         cl = self.cl
-        prg, self.build = self.device.program(("camera/lens_trace.cl", "layered/trace.cl", "layered/thick.cl"), opts)
-        self._render_thick = cl.Kernel(prg, "render_thick")
-        self._thick_rays = cl.Kernel(prg, "thick_rays")
-        mf, ctx = cl.mem_flags, self.device.context
-        self.samples = box_samples(2 * self.rays)
-        self.buf["samples"] = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.samples)
-        self.buf["boxes"] = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=table)
-        self.buf["stats"] = cl.Buffer(ctx, mf.WRITE_ONLY, 16 * self.h * self.w)
+        self._render_thick = cl.Kernel(self.program, "render_thick")
+        self._thick_rays = cl.Kernel(self.program, "thick_rays")
+        self.buf["boxes"] = cl.Buffer(self.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                                      hostbuf=self.pupil.kernel_table())
+
+    def _lens_options(self) -> list:
+        pupil = self.pupil
+        return pupil.lens.build_options() + [
+            f"-DNCH={self.channels}", f"-DMM_PX={self.mm_px!r}f", f"-DF_PX={self.f_px!r}f",
+            f"-DORIGIN_Z={pupil.origin_z_mm!r}f", f"-DLAST_Z={pupil.lens.sensor_z_mm!r}f",
+            f"-DPUPIL_Z={self.pupil_z!r}f", f"-DPLANE_GAP={pupil.plane_gap_mm!r}f", f"-DNBOX={len(pupil.boxes_mm)}",
+            f"-DINV_STEP={1.0 / pupil.radius_step_mm!r}f"]
+
+    def _lens_samples(self) -> np.ndarray:
+        """2 ``rays`` Halton points in the unit square: where in its exit-pupil box a ray aims."""
+        return box_samples(2 * self.rays)
 
     def render(self, stack: LayerStack, thickness_px: float = 1.0, seed: int = 0) -> tuple:
         """Trace ``rays`` lens rays per pixel and channel through ``stack``.
@@ -97,7 +103,7 @@ class ThickLayerTracer(LayerTracer):
                 cl.enqueue_copy(q, stats, b["stats"], wait_for=[kernel], is_blocking=False)]
         transfer = event_ms(*events, *down)
         info = {"kernel_ms": event_ms(kernel, *self.nbuffer_events), "transfer_ms": transfer,
-                "rays_hit": int(round(float(out[..., 3].sum()) * 3)), "rays_left_image": int(stats[..., 0].sum()),
+                "rays_hit": int(round(float(out[..., 3].sum()) * self.channels)), "rays_left_image": int(stats[..., 0].sum()),
                 "rays_missed": int(stats[..., 1].sum()), "rays_blocked": int(stats[..., 2].sum()),
                 "pixels_no_hit": int((out[..., 3] <= 0).sum())}
         return np.ascontiguousarray(out[..., :3]), info

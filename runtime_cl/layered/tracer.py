@@ -9,6 +9,7 @@ layers), the min/max clamping and the walk are described in the kernel file.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -43,6 +44,12 @@ class LayerStack:
     @property
     def shape(self) -> tuple:
         return self.inv_depth.shape[1:]
+
+    @functools.cached_property
+    def wmax(self) -> float:
+        """The largest inverse depth any layer holds (-BIG when all are empty: no ray can hit)."""
+        top = float(self.inv_depth.max())
+        return top if top >= 0.0 else -float(BIG)
 
     def occupancy(self) -> list:
         """Fraction of pixels each layer holds something at."""
@@ -161,6 +168,9 @@ class LayerTracer:
     device : Device, optional
     """
 
+    KERNEL_FILES = ("layered/trace.cl",)   # a subclass builds its lens's kernels with the search
+    STATS_INTS = 2                          # per-pixel ray counts the render kernel writes
+
     def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
                  pixel_iters: int = 3, false_position: int = 0, cone: bool = False, device=None):
         import pyopencl as cl
@@ -186,12 +196,12 @@ class LayerTracer:
         self.mips = min(MIPS, 1 + int(math.log2(max(self.h, self.w))))
         if self.cone:
             opts += ["-DCONE", f"-DCONE_STEPS={CONE_STEPS}", f"-DMIPS={self.mips}"]
-        prg, self.build = self.device.program(("layered/trace.cl",), opts)
         nprg, _ = self.device.program("layered/nbuffer.cl", opts[:3] + opts[5:9])   # W H NL DS W4 H4 LEVELS
         self._nbuffer = {k: cl.Kernel(nprg, k) for k in ("nbuffer_base", "nbuffer_level", "nbuffer_range")}
-        self._render = cl.Kernel(prg, "render")
-        self._trace = cl.Kernel(prg, "trace_rays")
-        self.samples = disc_samples(2 * self.rays)
+        self.program, self.build = self.device.program(self.KERNEL_FILES, opts + self._lens_options())
+        self._render = cl.Kernel(self.program, "render")
+        self._trace = cl.Kernel(self.program, "trace_rays")
+        self.samples = self._lens_samples()
         mf = cl.mem_flags
         ctx, n = self.device.context, self.h * self.w
         self.buf = {"height": cl.Buffer(ctx, mf.READ_ONLY, 4 * self.n_layers * n),
@@ -204,7 +214,16 @@ class LayerTracer:
                     "mip": cl.Buffer(ctx, mf.READ_ONLY, 16 * self.n_layers * (2 * n + 4 * self.mips)
                                      if self.cone else 16),
                     "mip_offset": cl.Buffer(ctx, mf.READ_ONLY, 4 * self.n_layers * self.mips),
-                    "stats": cl.Buffer(ctx, mf.WRITE_ONLY, 8 * n)}
+                    "stats": cl.Buffer(ctx, mf.WRITE_ONLY, 4 * self.STATS_INTS * n)}
+        self._focus_uploaded = None   # the per-pixel 1/F array last uploaded (the same one: no upload)
+
+    def _lens_options(self) -> list:
+        """Build options of the lens (none for the thin lens: its rays are scaled disc samples)."""
+        return []
+
+    def _lens_samples(self) -> np.ndarray:
+        """The jittered lens sample set: 2 ``rays`` Halton points on the unit disc."""
+        return disc_samples(2 * self.rays)
 
     def _upload(self, stack: LayerStack) -> tuple:
         """The uploads and the min/max N-buffer, built on the device; (transfer events, wmax).
@@ -213,8 +232,6 @@ class LayerTracer:
         if stack.inv_depth.shape != (self.n_layers, self.h, self.w):
             raise InputError(f"layers: {stack.inv_depth.shape} (layers, H, W), this tracer was built for "
                              f"{(self.n_layers, self.h, self.w)}; build a tracer for the input's size")
-        top = float(stack.inv_depth.max())
-        wmax = top if top >= 0.0 else -float(BIG)     # nothing anywhere: no ray can hit
         q, cl, b, nb = self.device.queue, self.cl, self.buf, self._nbuffer
         events = [cl.enqueue_copy(q, b["height"], stack.inv_depth, is_blocking=False),
                   cl.enqueue_copy(q, b["colour"], stack.colour, is_blocking=False)]
@@ -224,7 +241,7 @@ class LayerTracer:
             kernels.append(nb["nbuffer_level"](q, grid, (8, 8, 1), b["nbuf"], np.int32(lv), wait_for=kernels[-1:]))
         kernels.append(nb["nbuffer_range"](q, (self.n_layers,), None, b["nbuf"], b["range"], wait_for=kernels[-1:]))
         self.nbuffer_events = kernels
-        return events, wmax
+        return events, stack.wmax
 
     def render(self, stack: LayerStack, coc_scale: float, focus_m: float, thickness_px: float = 1.0,
                seed: int = 0, inv_focus_map=None) -> tuple:
@@ -243,7 +260,8 @@ class LayerTracer:
             Seeds the per-pixel offsets into the lens sample set.
         inv_focus_map : (H, W) array, optional
             Per pixel, 1 / the distance in focus (a tilted or expressive focus,
-            ``ThinLens.inverse_focus_map``); default 1 / ``focus_m`` everywhere.
+            ``ThinLens.inverse_focus_map``); default 1 / ``focus_m`` everywhere. Uploaded only when it
+            is not the array object the last render uploaded (do not change one in place).
 
         Returns
         -------
@@ -263,11 +281,16 @@ class LayerTracer:
         events, wmax = self._upload(stack)
         cl, q = self.cl, self.device.queue
         b = self.buf
-        inv_focus = np.full((self.h, self.w), 1.0 / focus_m, np.float32) if inv_focus_map is None else \
-            np.ascontiguousarray(inv_focus_map, np.float32)
-        if inv_focus.shape != (self.h, self.w) or not np.all(np.isfinite(inv_focus)):
-            raise InputError(f"inv_focus_map: shape {inv_focus.shape}, need finite values of shape {(self.h, self.w)}")
-        events.append(cl.enqueue_copy(q, b["inv_focus"], inv_focus, is_blocking=False))
+        key = ("uniform", float(focus_m)) if inv_focus_map is None else inv_focus_map
+        last = self._focus_uploaded
+        if not (key is last or (isinstance(key, tuple) and isinstance(last, tuple) and key == last)):
+            inv_focus = np.full((self.h, self.w), 1.0 / focus_m, np.float32) if inv_focus_map is None else \
+                np.ascontiguousarray(inv_focus_map, np.float32)
+            if inv_focus.shape != (self.h, self.w) or not np.all(np.isfinite(inv_focus)):
+                raise InputError(f"inv_focus_map: shape {inv_focus.shape}, need finite values of shape "
+                                 f"{(self.h, self.w)}")
+            events.append(cl.enqueue_copy(q, b["inv_focus"], inv_focus, is_blocking=False))
+            self._focus_uploaded = key
         if self.cone:
             mip, offsets = colour_mipmaps(stack, self.mips)
             events += [cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),

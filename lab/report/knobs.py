@@ -20,7 +20,7 @@ from typing import Callable
 
 from runtime_cl.errors import InputError
 
-__all__ = ["Knob", "KNOBS", "register_knob", "knob_names", "select_knobs", "pass_accepts", "REFERENCE"]
+__all__ = ["Knob", "KNOBS", "register_knob", "select_knobs", "pass_accepts", "REFERENCE"]
 
 REFERENCE = "path tracer"   # the method name of the reference-spp points (Mitsuba against the reference)
 
@@ -146,10 +146,6 @@ register_knob(Knob("integrator", "pass", "integrator", "Poisson integrator", _in
 # The path tracer itself as a method: fewer samples, an independent seed, scored against the reference.
 register_knob(Knob("reference_spp", "reference", "reference_spp", "reference samples per pixel",
                    lambda base: [v for v in (base // 8, base // 4, base // 2, base) if v >= 1]))
-
-
-def knob_names() -> list[str]:
-    return list(KNOBS)
 
 
 def select_knobs(names=None) -> list[Knob]:

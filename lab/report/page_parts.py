@@ -88,16 +88,14 @@ def _cell(value, digits) -> str:
     return f"<td{cls}{sort_key}>{fmt(value, digits)}</td>"
 
 
-def sortable(headers, rows, row_classes=None, digits: int = 4, caption: str | None = None,
-             table_id: str | None = None) -> str:
+def sortable(headers, rows, row_classes=None, digits: int = 4, table_id: str | None = None) -> str:
     """A table whose columns sort on a click (:data:`SORT_SCRIPT`); ``rows`` of plain values."""
     head = "".join(f"<th>{esc(h)}</th>" for h in headers)
     classes = row_classes or [""] * len(rows)
     body = "".join(f'<tr class="{c}">' + "".join(_cell(v, digits) for v in row) + "</tr>"
                    for row, c in zip(rows, classes))
-    cap = f"<caption class='caption'>{esc(caption)}</caption>" if caption else ""
     ident = f' id="{esc(table_id)}"' if table_id else ""
-    return f'<table class="sortable"{ident}>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+    return f'<table class="sortable"{ident}><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
 
 
 def _flat(data, prefix="") -> list[tuple[str, object]]:
@@ -112,13 +110,13 @@ def _flat(data, prefix="") -> list[tuple[str, object]]:
     return rows
 
 
-def key_values(data: dict, skip=()) -> str:
+def key_values(data: dict) -> str:
     """A two-column table of ``data`` (nested keys dotted), a readable view of JSON."""
     rows = "".join(f'<tr><th class="text">{esc(k)}</th><td class="text">{fmt(v)}</td></tr>'
-                   for k, v in _flat({k: v for k, v in data.items() if k not in skip}))
+                   for k, v in _flat(data))
     return f"<table>{rows}</table>"
 
 
-def figure(src: str, caption: str, cls: str = "") -> str:
-    return (f'<figure class="{cls}"><a href="{esc(src)}"><img src="{esc(src)}" alt="{esc(caption)}"></a>'
+def figure(src: str, caption: str) -> str:
+    return (f'<figure><a href="{esc(src)}"><img src="{esc(src)}" alt="{esc(caption)}"></a>'
             f"<figcaption>{esc(caption)}</figcaption></figure>")

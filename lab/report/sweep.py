@@ -168,24 +168,31 @@ def _reference_point(task, scene, plan, image, executor) -> dict:
 def run_sweep(scene, plan, image, reference, reference_b, databases, knobs, executor=None,
               progress: bool = True) -> dict:
     """Measure every sweep point of ``scene``; returns the report's ``sweep`` dictionary
-    (``points`` without images, ``skipped``, the knobs swept) and the images by point index
-    under the key ``"_images"`` (taken out before report.json is written)."""
+    (``points``, ``skipped``, the knobs swept). A method's point at its report settings is
+    rendered once, however many knobs it has (the other knobs' base points repeat it)."""
     from tqdm import tqdm
 
     from ..parallel import Executor
 
     executor = Executor() if executor is None else executor
     tasks, skipped = sweep_tasks(scene, plan, image, knobs)
-    points, images = [], []
+    points, at_base = [], {}
     for task in tqdm(tasks, desc=f"sweep {scene.name}", unit="point", disable=not progress):
+        base = task.value == task.base
         if task.knob.kind == "reference":
-            point = _reference_point(task, scene, plan, image, executor)
+            measured = _reference_point(task, scene, plan, image, executor)
+        elif base and task.method in at_base:
+            measured = dict(at_base[task.method])
         else:
             point = _runtime_point(task, scene, plan, image, databases, executor)
-        rgb = point.pop("rgb")
-        point = dict(method=task.method, knob=task.knob.name, key=task.knob.key, value=task.value,
-                     base=task.value == task.base, **point, **_scores(rgb, reference, reference_b))
-        points.append(point)
-        images.append(rgb)
+            rgb = point.pop("rgb")
+            measured = dict(point, **_scores(rgb, reference, reference_b))
+            if base:
+                at_base[task.method] = {k: v for k, v in measured.items() if k != "database"}
+        if "rgb" in measured:
+            rgb = measured.pop("rgb")
+            measured.update(_scores(rgb, reference, reference_b))
+        points.append(dict(method=task.method, knob=task.knob.name, key=task.knob.key, value=task.value,
+                           base=base, **measured))
     return {"knobs": {k.name: {"kind": k.kind, "key": k.key, "label": k.label} for k in knobs},
-            "points": points, "skipped": skipped, "_images": images}
+            "points": points, "skipped": skipped}

@@ -21,7 +21,6 @@ def add_sweep(report: dict, scene, plan, image, reference, reference_b, database
     from .sweep import run_sweep
 
     sweep = run_sweep(scene, plan, image, reference, reference_b, databases, knobs, executor, progress)
-    sweep.pop("_images")
     points = sweep["points"]
     swept = {p["method"] for p in points}
     for name, m in report["methods"].items():   # a method no knob turns is on the plot as the report ran it

@@ -46,10 +46,11 @@ def _drawn_fraction(db) -> np.ndarray:
 def table1_row(db) -> dict:
     """Our Table 1 row for a loaded :class:`~runtime_cl.psf.database.SpreadletDatabase`."""
     size = os.path.getsize(db.path) if db.path and os.path.exists(db.path) else db.nbytes()
+    drawn = _drawn_fraction(db)
     row = {"model": db.model, "ns": db.grid.ns, "color": db.channels == 3, "samples": db.n_samples,
            "beta": list(db.grid.beta), "size_MB": size / 1e6,
-           "mean_sparsity_percent": 100.0 * float(np.mean(_drawn_fraction(db))),
-           "sparse_only_sparsity_percent": (100.0 * float(np.mean(_drawn_fraction(db)[~db.fast_track]))
+           "mean_sparsity_percent": 100.0 * float(np.mean(drawn)),
+           "sparse_only_sparsity_percent": (100.0 * float(np.mean(drawn[~db.fast_track]))
                                             if not db.fast_track.all() else None),
            "mean_similarity_ssim": float(np.mean(db.stats["ssim"])),
            "spreadlets": db.n_spreadlets, "fast_track": int(db.fast_track.sum()),

@@ -19,6 +19,7 @@ it from here, and ``coc_radius_px`` then needs the (H, W) depth map.
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import dataclass
@@ -106,13 +107,10 @@ class ThinLens:
         return None if self.focal_surface is None else json.loads(self.focal_surface)
 
     def inverse_focus_map(self, height: int, width: int) -> np.ndarray:
-        """(H, W) float64: per pixel, 1 / the distance in focus along its chief ray (1/F untilted)."""
-        if self.focal_surface is not None:
-            return expressive_inverse_focus(height, width, self.surface())
-        if self.tilted:
-            return tilt_inverse_focus(height, width, self.focal_px(width), 1.0 / self.focus_distance_m,
-                                      self.image_distance_m, self.sensor_tilt_deg)
-        return np.full((height, width), 1.0 / self.focus_distance_m)
+        """(H, W) float64, read-only: per pixel, 1 / the distance in focus along its chief ray (1/F
+        untilted). Made once per lens and size (every pass's CoC asks for it; a focal surface's
+        moving least squares costs a small solve per pixel)."""
+        return _inverse_focus_map(self, int(height), int(width))
 
     @property
     def aperture_radius_m(self) -> float:
@@ -190,3 +188,17 @@ class ThinLens:
                        focal_surface=data.get("focal_surface"), focus_points=data.get("focus_points", ()))
         except InputError as exc:
             raise InputError(f"{source}: {exc}") from None
+
+
+@functools.lru_cache(maxsize=8)
+def _inverse_focus_map(lens: ThinLens, height: int, width: int) -> np.ndarray:
+    if lens.focal_surface is not None:
+        out = expressive_inverse_focus(height, width, lens.surface())
+    elif lens.tilted:
+        out = tilt_inverse_focus(height, width, lens.focal_px(width), 1.0 / lens.focus_distance_m,
+                                 lens.image_distance_m, lens.sensor_tilt_deg)
+    else:
+        out = np.full((height, width), 1.0 / lens.focus_distance_m)
+    out = np.asarray(out, np.float64)
+    out.setflags(write=False)
+    return out

@@ -19,7 +19,7 @@ class ThinRays:
     def __init__(self, camera, shape, n_layers, rays, **options):
         self.camera = camera
         self.tracer = LayerTracer(shape, n_layers, rays, **options)
-        # A tilted or expressive focus: each pixel's own 1/F (ThinLens.inverse_focus_map), made once.
+        # A tilted or expressive focus: each pixel's own 1/F (ThinLens.inverse_focus_map)
         self.focus = camera.inverse_focus_map(*shape) if getattr(camera, "has_focal_map", False) else None
 
     def render(self, stack, thickness_px, seed):

@@ -188,7 +188,7 @@ def _weights(layer: PixelLayer, edges: np.ndarray, soft: float) -> np.ndarray:
     """(n, H, W) float32 share of every pixel in every depth layer (the module docstring's soft
     layering); 0 for culled pixels. ``soft = 0``: 0/1, the hard bins of :func:`_bins`."""
     n = len(edges) - 1
-    if soft == 0 or n == 1:
+    if soft == 0 or n == 1 or edges[-1] == edges[0]:   # one CoC everywhere: no edge to soften
         bins = _bins(layer, edges)
         return np.stack([bins == i for i in range(n)]).astype(np.float32)
     t = (layer.coc.astype(np.float64) - edges[0]) / (edges[1] - edges[0])   # position in bins

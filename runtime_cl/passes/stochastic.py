@@ -33,6 +33,8 @@ class _Stochastic:
     call splats every slot with the base pass and sums."""
 
     channels = ("R", "G", "B", "Z") + CHANNELS
+    layered = False     # re-centred slots are flat frames: no depth layers of their own
+    far_field = False   # stochastic inputs have no medium (lab.reference.stochastic refuses fog)
 
     def configure(self, *, normalize: bool = False, min_density: float = 0.25, **options):
         if not isinstance(normalize, bool):

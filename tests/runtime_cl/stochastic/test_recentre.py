@@ -161,3 +161,15 @@ def test_samples_of_different_motion_keep_their_own_entries():
     got = sorted(float(f.motion[0, 0, 0]) for f in rec.frames)
     assert got == pytest.approx([0.0, 22.0])
     assert sum(float(n[0, 0, 0]) for n in rec.counts) == 2.0
+
+
+@pytest.mark.parametrize("name", ["stochastic_spreadlets", "stochastic_splat"])
+def test_stochastic_passes_refuse_depth_layers_and_far_fields(name):
+    """Re-centred slots are flat frames: depth layers would meet frames without layers, and a far
+    field would be added to the sample density too; both are refused up front."""
+    from runtime_cl.passes import get_pass
+
+    cls = get_pass(name)
+    assert not cls.layered and not cls.far_field
+    with pytest.raises(InputError, match="renders one layer"):
+        cls(ThinLens(50.0, 2.0, 1.0), layers=2)

@@ -43,6 +43,11 @@ def render_key(scene: Scene, packages=None) -> str:
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 
+def render_folder(scene: Scene):
+    """Where a scene's input, references and what derives from them are cached (not made here)."""
+    return cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"
+
+
 NOISE_SEED_OFFSET = 1_000_003   # the second reference's seed: seed + this (mod 2^31)
 SECOND_REFERENCE = "reference_b_image"
 
@@ -62,7 +67,7 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
     from .report.metrics import psnr, ssim
 
     executor = Executor() if executor is None else executor
-    folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"   # made by the first write
+    folder = render_folder(scene)   # made by the first write
     remove_stale_temps(folder)
     info = {"cache": str(folder)}
     input_path = folder / ("input_guard.exr" if scene.render.guard_band else "input.exr")

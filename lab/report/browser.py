@@ -66,10 +66,7 @@ class Chromium:
              "--allow-file-access-from-files", f"--user-data-dir={self._profile.name}", "about:blank"],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
-            port = self._port()
-            with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as r:
-                targets = json.load(r)
-            page = next(t for t in targets if t["type"] == "page")
+            page = self._page(self._port())
             self._ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=LOAD_TIMEOUT_S,
                                                    suppress_origin=True)
             for method in ("Page.enable", "Runtime.enable", "Log.enable"):
@@ -94,6 +91,18 @@ class Chromium:
                 return int(marker.read_text().split()[0])
             time.sleep(0.05)
         raise RuntimeError(f"{self.executable} did not open its debugging port in {START_TIMEOUT_S:g} s")
+
+    def _page(self, port: int) -> dict:
+        """The first page target; Chromium may open its debugging port before it lists the page."""
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while True:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as r:
+                pages = [t for t in json.load(r) if t.get("type") == "page"]
+            if pages:
+                return pages[0]
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"{self.executable} listed no page target in {START_TIMEOUT_S:g} s")
+            time.sleep(0.05)
 
     def _stop(self) -> None:
         ws = getattr(self, "_ws", None)

@@ -144,12 +144,11 @@ def _runtime_point(task, scene, plan, image, databases, executor) -> dict:
 def _reference_point(task, scene, plan, image, executor) -> dict:
     """The path tracer at ``task.value`` spp with an independent seed; seconds kept beside it."""
     from ..exr_io import read_rgb
-    from ..paths import cache_root
-    from ..pipeline import NOISE_SEED_OFFSET, _reference, render_key
+    from ..pipeline import NOISE_SEED_OFFSET, _reference, render_folder
 
     seed = (scene.render.seed + 2 * NOISE_SEED_OFFSET) % 2**31   # neither the reference's nor its twin's
     other = replace(scene, render=replace(scene.render, reference_spp=int(task.value), seed=seed))
-    folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}" / "sweep"
+    folder = render_folder(scene) / "sweep"
     path, seconds_file = folder / f"reference-{other.render.reference_spp}spp.exr", \
         folder / f"reference-{other.render.reference_spp}spp.json"
     if path.exists() and seconds_file.exists():

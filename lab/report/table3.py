@@ -40,7 +40,6 @@ from runtime_cl.atomic_file import atomic_path, check_output_dir
 
 from ..cache_key import code_digest
 from ..exr_io import read_labelled, write_labelled
-from ..paths import cache_root
 from .html import STYLE
 from .machine import machine_info
 from .metrics import TONEMAP, psnr, ssim, tonemap
@@ -93,10 +92,10 @@ def scene_at(scene, width: int | None, reference_spp: int | None = None):
 def stochastic_inputs(scene, image, count: int, progress: bool = True, shading_spp: int = 1) -> list:
     """``count`` independent 1-spp stochastic images of ``scene`` (cached beside its input);
     ``shading_spp`` paths per camera ray (:mod:`lab.reference.stochastic`)."""
-    from ..pipeline import render_key
+    from ..pipeline import render_folder
     from ..reference.stochastic import render_stochastic
 
-    folder = cache_root() / "renders" / f"{scene.name}-{render_key(scene)}"
+    folder = render_folder(scene)
     key = code_digest(("lab.reference.stochastic",))[:12]
     flow = [image.extra[c] for c in ("motion.X", "motion.Y") if c in image.extra]
     longest = float(np.hypot(*flow).max()) if flow else 0.0

@@ -52,6 +52,15 @@ NOISE_SEED_OFFSET = 1_000_003   # the second reference's seed: seed + this (mod 
 SECOND_REFERENCE = "reference_b_image"
 
 
+def reseeded(scene: Scene, stream: int, **render) -> Scene:
+    """``scene`` with an independent path-tracing seed: stream 1 is the reference's noise-floor
+    twin, stream 2 the path tracer compared as a method (sweeps, benches). Same seed, same passes:
+    a render at fewer spp from the reference's own seed would be a subset of its samples, and
+    agree with it far better than independent noise does. ``render`` overrides other settings."""
+    seed = (scene.render.seed + stream * NOISE_SEED_OFFSET) % 2**31
+    return replace(scene, render=replace(scene.render, seed=seed, **render))
+
+
 def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
                          executor: Executor | None = None, second: bool = False) -> tuple:
     """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info).
@@ -86,7 +95,7 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
     info.update(reference_spp=scene.render.reference_spp, input_spp=scene.render.input_spp,
                 steps=[s.name for s in plan.references])
     if second and plan.references[0].name != "pinhole":
-        other = replace(scene, render=replace(scene.render, seed=(scene.render.seed + NOISE_SEED_OFFSET) % 2**31))
+        other = reseeded(scene, 1)
         again, seconds = _reference(other, plan, image, folder / "reference_b.exr", executor, progress)
         info["noise_floor"] = {"ssim": ssim(again, reference), "psnr": psnr(again, reference),
                                "seeds": [scene.render.seed, other.render.seed], "reference_s": seconds}

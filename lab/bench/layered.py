@@ -4,7 +4,8 @@ On a scene with ``[render] peel_layers`` (default ``scenes/foreground.toml``): f
 100, 256 lens rays per pixel, SSIM and PSNR against the Mitsuba thin-lens reference and the time
 per frame; the same through the flat pinhole image (what the peeled layers add); the time with
 the nearest 1, 2, ... layers (the cost of later layers); and Mitsuba's own render through the
-scene's lens at low sample counts, timed in the same run, for the time at equal SSIM
+scene's lens at low sample counts with an independent seed (the reference's own seed would
+reuse its samples and flatter Mitsuba), timed in the same run, for the time at equal SSIM
 (:mod:`lab.bench.layered_plot`, which also draws LES10 Fig. 7 beside the JSON). Each time is the median
 of ``repeats`` timed calls (after a warm-up), with the spread over them.
 """
@@ -20,7 +21,7 @@ from lab.bench.layered_plot import equal_quality_speedup, plot_layered
 __all__ = ["bench_layered", "RAYS"]
 
 RAYS = (8, 32, 100, 256)
-MITSUBA_SPP = (1, 4, 16, 64, 256, 1024)
+MITSUBA_SPP = (1, 4, 16, 64, 256, 1024, 2048)
 
 
 def _timed(call, repeats: int) -> tuple:
@@ -51,7 +52,7 @@ def _spread(times) -> dict:
 def bench_layered(scene_path, repeats: int, rays=RAYS, mitsuba_spp=MITSUBA_SPP) -> "Path":
     """The layered pass on ``scene_path``'s peeled input: quality and time per ray count and layer count."""
     from lab.errors import UserError
-    from lab.pipeline import inputs_and_reference, load_scene_and_plan
+    from lab.pipeline import inputs_and_reference, load_scene_and_plan, reseeded
     from lab.reference.render import reference_job
     from lab.report.metrics import psnr, ssim
     from lab.runtime_passes import frame_of, runtime_camera
@@ -88,7 +89,7 @@ def bench_layered(scene_path, repeats: int, rays=RAYS, mitsuba_spp=MITSUBA_SPP) 
     mitsuba = {}
     for spp in mitsuba_spp:
         start = time.perf_counter()
-        img = reference_job(scene, spp=spp).run(progress=False)
+        img = reference_job(reseeded(scene, 2), spp=spp).run(progress=False)   # independent noise
         mitsuba[spp] = {"ssim": ssim(img, reference), "psnr": psnr(img, reference),
                         "ssim_smoothed": _smooth_ssim(img, reference),
                         "time_ms": (time.perf_counter() - start) * 1e3}

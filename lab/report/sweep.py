@@ -144,10 +144,10 @@ def _runtime_point(task, scene, plan, image, databases, executor) -> dict:
 def _reference_point(task, scene, plan, image, executor) -> dict:
     """The path tracer at ``task.value`` spp with an independent seed; seconds kept beside it."""
     from ..exr_io import read_rgb
-    from ..pipeline import NOISE_SEED_OFFSET, _reference, render_folder
+    from ..pipeline import _reference, render_folder, reseeded
 
-    seed = (scene.render.seed + 2 * NOISE_SEED_OFFSET) % 2**31   # neither the reference's nor its twin's
-    other = replace(scene, render=replace(scene.render, reference_spp=int(task.value), seed=seed))
+    other = reseeded(scene, 2, reference_spp=int(task.value))   # neither the reference's nor its twin's
+    seed = other.render.seed
     folder = render_folder(scene) / "sweep"
     path, seconds_file = folder / f"reference-{other.render.reference_spp}spp.exr", \
         folder / f"reference-{other.render.reference_spp}spp.json"

@@ -5,6 +5,8 @@ takes for the same quality.
 (interpolated in log time between measured points) and asks what Mitsuba needs to reach the
 layered pass's SSIM: the ratio of that time to the pass's is LES10's "time at equal quality".
 Past Mitsuba's best measured point the ratio is only a lower bound, and it is marked so.
+``ssim_at_time`` reads the layered pass's own curve the same way, for splatting with depth layers
+beside layered tracing at equal time.
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ import numpy as np
 
 from runtime_cl.atomic_file import atomic_path
 
-__all__ = ["equal_quality_speedup", "plot_layered"]
+__all__ = ["equal_quality_speedup", "plot_layered", "ssim_at_time"]
 
 
 def equal_quality_speedup(ssim: float, time_ms: float, mitsuba: dict) -> dict:
@@ -46,6 +48,22 @@ def equal_quality_speedup(ssim: float, time_ms: float, mitsuba: dict) -> dict:
     return {"mitsuba_ms": ms, "speedup": ms / time_ms, "bound": bound}
 
 
+def ssim_at_time(time_ms: float, curve: list) -> dict:
+    """The SSIM a method with points ``curve`` ([(time_ms, ssim), ...]) reaches in ``time_ms``,
+    interpolated in log time; ``bound`` ``"exact"``, ``"faster"`` (``time_ms`` is below its
+    fastest point: the SSIM given is that point's, more than it reaches) or ``"slower"`` (past its
+    slowest: that point's SSIM, a lower bound)."""
+    pts = sorted((float(t), float(s)) for t, s in curve)
+    t, s = np.array([p[0] for p in pts]), np.array([p[1] for p in pts])
+    if time_ms < t[0]:
+        return {"ssim": float(s[0]), "time_ms": float(t[0]), "bound": "faster"}
+    if time_ms >= t[-1]:
+        return {"ssim": float(s[-1]), "time_ms": float(t[-1]), "bound": "slower"}
+    j = int(np.argmax(t > time_ms))
+    f = (math.log(time_ms) - math.log(t[j - 1])) / (math.log(t[j]) - math.log(t[j - 1]))
+    return {"ssim": float(s[j - 1] + f * (s[j] - s[j - 1])), "time_ms": float(time_ms), "bound": "exact"}
+
+
 def plot_layered(data: dict, path: Path) -> Path:
     """Quality against lens rays / spp and against time (the layered bench's ``data``) as a PNG."""
     import matplotlib
@@ -63,6 +81,13 @@ def plot_layered(data: dict, path: Path) -> Path:
              title="quality against samples (LES10 Fig. 7)")
     right.plot([m["time_ms"] for _, m in peeled], [m["ssim"] for _, m in peeled], "o-", label="layered")
     right.plot([m["time_ms"] for _, m in mitsuba], [m["ssim"] for _, m in mitsuba], "s--", label="Mitsuba")
+    splats = sorted(data.get("equal_time", {}).items())
+    if splats:
+        right.plot([v["time_ms"] for _, v in splats], [v["ssim"] for _, v in splats], "^", color="C3",
+                   label="spreadlets, depth layers")
+        for k, v in splats:
+            right.annotate(k.replace("spreadlets_", ""), (v["time_ms"], v["ssim"]), textcoords="offset points",
+                           xytext=(4, 4), fontsize=7, color="C3")
     for n, m in peeled:
         right.annotate(f"{n}", (m["time_ms"], m["ssim"]), textcoords="offset points", xytext=(4, -10), fontsize=8)
     right.set(xscale="log", xlabel="time per frame (ms)", ylabel="SSIM vs reference", title="quality against time")

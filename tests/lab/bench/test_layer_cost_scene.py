@@ -17,3 +17,11 @@ def test_fence_layers_are_peeled_past_the_umbra():
         held = alpha > 0
         assert np.all(far[held] >= near[held] + umbra_offset(near[held], scale) - 1e-6)
         assert np.all(np.isinf(far[~held]))
+
+
+def test_the_grids_fence_is_sixteen_layers_deep():
+    # LES10 Table 1's 1 ... 16 layers: the grid's denser fence must reach its 16th layer
+    camera = ThinLens(focal_length_mm=50.0, f_number=1.4, focus_distance_m=4.0)
+    layers = fence_layers(camera, height=2, posts=300, n_layers=16)
+    occupancy = [float(np.mean(a > 0)) for _, a, _ in layers]
+    assert len(layers) == 16 and occupancy[0] == 1.0 and 0 < occupancy[15] < occupancy[8]

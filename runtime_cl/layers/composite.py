@@ -47,8 +47,12 @@ linearly (weights summing to 1), so a surface spanning an edge does not break in
 pieces; ``soft = 0`` is the hard binning above, ``soft <= 1`` keeps each pixel in at most two layers.
 
 Layered input (LDI-like: e.g. a foreground layer with alpha and the background rendered without
-the foreground) is a list of :class:`PixelLayer`; all their pixels go into the same global
-layers, so the order of the input layers does not matter.
+the foreground, or LES10's peeled layers) is a list of :class:`PixelLayer`; all their pixels go
+into the same global layers. Where two input pixels at one image position fall into the same
+depth layer, the farther (larger signed CoC; equal: the later input layer) is hidden by the
+nearer's coverage, as a single image would hide it: splats within a layer add, so without this a
+surface and what lies just behind it would both be drawn, too bright. So the order of the input
+layers does not matter.
 """
 from __future__ import annotations
 
@@ -199,6 +203,22 @@ def _weights(layer: PixelLayer, edges: np.ndarray, soft: float) -> np.ndarray:
     return np.stack([(above[i] - above[i + 1]) * live for i in range(n)]).astype(np.float32)
 
 
+def _hide_within_layers(layers: list[PixelLayer], weights: list) -> list:
+    """Each input pixel's share of every depth layer times the transmittance of the input pixels in
+    front of it at its image position within that layer (the module docstring's layered input)."""
+    if len(layers) == 1:
+        return weights
+    out = []
+    for j, (x, wt) in enumerate(zip(layers, weights)):
+        through = np.ones_like(wt)
+        for i, (y, wi) in enumerate(zip(layers, weights)):
+            if i != j:
+                nearer = (y.coc < x.coc) | ((y.coc == x.coc) & (i < j))
+                through *= 1.0 - np.where(nearer, y.alpha, 0.0) * wi
+        out.append((wt * through).astype(np.float32))
+    return out
+
+
 def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 0.0):
     """Depth of field with occlusion: splat global depth layers and composite them.
 
@@ -228,7 +248,7 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
     start = time.perf_counter()
     layers = _check_layers(layers)
     edges = _edges(layers, _check_count(n_layers))
-    weights = [_weights(x, edges, check_soft(soft)) for x in layers]
+    weights = _hide_within_layers(layers, [_weights(x, edges, check_soft(soft)) for x in layers])
     h, w, c = layers[0].rgb.shape
     out = np.zeros((h, w, c), np.float32)
     per_layer = []

@@ -59,13 +59,28 @@ def shares(coc, live, edges, soft):
     return out * live
 
 
+def hidden_within(layers, w8):
+    """The shares after the nearer input pixels of the same layer hid them, pixel by pixel: front
+    to back by signed CoC (ties: input order), each scaled by what the ones before let through."""
+    out = [s.copy() for s in w8]
+    n, h, w = w8[0].shape
+    for i in range(n):
+        for y in range(h):
+            for x in range(w):
+                through = 1.0
+                for k in sorted(range(len(layers)), key=lambda k: (layers[k].coc[y, x], k)):
+                    out[k][i, y, x] = w8[k][i, y, x] * through
+                    through *= 1.0 - layers[k].alpha[y, x] * w8[k][i, y, x]
+    return out
+
+
 def reference(layers, n, spread, soft=0.0):
     """The composite of :mod:`runtime_cl.layers.composite`, float64; ``spread(image, source)``
     splats an (H, W, C) image of input layer ``source``."""
     live = [(x.alpha > 0) | np.any(x.rgb != 0, axis=2) for x in layers]
     cocs = np.concatenate([x.coc[m] for x, m in zip(layers, live)]).astype(np.float64)
     edges = np.linspace(cocs.min(), cocs.max(), n + 1)
-    w8 = [shares(x.coc.astype(np.float64), m, edges, soft) for x, m in zip(layers, live)]
+    w8 = hidden_within(layers, [shares(x.coc.astype(np.float64), m, edges, soft) for x, m in zip(layers, live)])
     h, w, c = layers[0].rgb.shape
     out, behind = np.zeros((h, w, c)), False
     for i in reversed(range(n)):
@@ -91,15 +106,15 @@ def reference(layers, n, spread, soft=0.0):
     return out
 
 
-def random_layers(rng, h=22, w=26):
+def random_layers(rng, h=22, w=26, fg_coc=(-4.0, -1.0)):
     """A background (CoC +2..+5, bright) and a foreground layer with random coverage patches
-    (CoC -4..-1), colours premultiplied; opaque everywhere together."""
+    (CoC ``fg_coc``), colours premultiplied; opaque everywhere together."""
     coc_bg = rng.uniform(2.0, 5.0, (h, w)).astype(np.float32)
     bg = PixelLayer((rng.random((h, w, 3)) * 3).astype(np.float32), np.ones((h, w), np.float32), coc_bg)
     alpha = np.zeros((h, w), np.float32)
     alpha[4:14, 5:15] = rng.uniform(0.3, 1.0, (10, 10))
     alpha[16:20, 2:22] = 1.0
-    coc_fg = np.where(alpha > 0, rng.uniform(-4.0, -1.0, (h, w)), 0.0).astype(np.float32)
+    coc_fg = np.where(alpha > 0, rng.uniform(*fg_coc, (h, w)), 0.0).astype(np.float32)
     fg = PixelLayer((rng.random((h, w, 3)) * alpha[..., None]).astype(np.float32), alpha, coc_fg)
     return [fg, bg]
 
@@ -108,10 +123,13 @@ def coords_of(layers):
     return [(np.abs(x.coc)[..., None].astype(np.float32), None) for x in layers]
 
 
-@pytest.mark.parametrize("method, n, soft", [("spreadlets", 2, 0.0), ("spreadlets", 4, 0.5),
-                                             ("splat", 3, 1.0), ("filter", 3, 0.0)])
-def test_layered_input_matches_numpy(renderer, method, n, soft):
-    layers = random_layers(np.random.default_rng(n))
+@pytest.mark.parametrize("method, n, soft, fg_coc", [
+    ("spreadlets", 2, 0.0, (-4.0, -1.0)), ("spreadlets", 4, 0.5, (-4.0, -1.0)), ("splat", 3, 1.0, (-4.0, -1.0)),
+    ("filter", 3, 0.0, (-4.0, -1.0)),
+    ("spreadlets", 2, 0.0, (1.0, 4.0)), ("splat", 1, 0.0, (1.0, 4.0)), ("spreadlets", 3, 0.5, (1.0, 4.0))])
+def test_layered_input_matches_numpy(renderer, method, n, soft, fg_coc):
+    # fg_coc (1, 4): the foreground shares layers with the background (and is sometimes behind it)
+    layers = random_layers(np.random.default_rng(n), fg_coc=fg_coc)
     db = renderer.db
     one = {"spreadlets": splat_image, "splat": splat_image, "filter": filter_image}[method]
 
@@ -125,7 +143,24 @@ def test_layered_input_matches_numpy(renderer, method, n, soft):
     want = reference(layers, n, spread, soft)
     # float32 splats and integration (spreadlets: an FFT Poisson solve) against float64
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-5 * want.max())
-    assert len(info["layers"]) >= 2 and info["device_ms"] > 0
+    assert len(info["layers"]) >= min(n, 2) and info["device_ms"] > 0
+
+
+def test_an_opaque_input_pixel_hides_the_one_behind_it_in_its_layer(renderer):
+    # LES10's peeled layers: layer 1 holds what lies behind layer 0. In one depth layer the
+    # pinhole view shows only the nearer, so the pair must render as the near image alone.
+    rng = np.random.default_rng(5)
+    h, w = 20, 24
+    near = PixelLayer((rng.random((h, w, 3)) + 0.5).astype(np.float32), np.ones((h, w), np.float32),
+                      rng.uniform(2.0, 3.0, (h, w)).astype(np.float32))
+    far = PixelLayer((rng.random((h, w, 3)) * 4).astype(np.float32), np.ones((h, w), np.float32),
+                     near.coc + 0.5)
+    splatter = SpreadletLayerSplatter(Renderer(renderer.db, crop_integration=True), "splat",
+                                      coords_of([near, far]))
+    both, _ = render_layers(splatter, [near, far], 1)
+    alone, _ = render_layers(SpreadletLayerSplatter(Renderer(renderer.db, crop_integration=True), "splat",
+                                                    coords_of([near])), [near], 1)
+    np.testing.assert_array_equal(both, alone)   # the far pixels' shares are exactly 0
 
 
 def test_one_layer_is_todays_render_bit_for_bit(renderer):

@@ -9,7 +9,9 @@ turns its normal from +z to +y (a floor).
 """
 from __future__ import annotations
 
+import json
 import math
+import re
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -239,6 +241,8 @@ def parse_shape(table: dict, where: str, materials: dict) -> Shape:
         table = dict(table, emitter=from_table(AreaLight, table["emitter"], f"{where}.emitter"))
     shape = from_table(Shape, table, where)
     if shape.material is not None and shape.material not in materials:
+        bare = re.fullmatch(r"[A-Za-z0-9_-]+", shape.material)   # else TOML quotes the key (and JSON's escapes are TOML's)
+        key = shape.material if bare else json.dumps(shape.material)
         raise UserError(f"{where}: material = {shape.material!r} is not defined; defined: "
-                        f"{sorted(materials)}; add a [materials.{shape.material}] table or fix the name")
+                        f"{sorted(materials)}; add a [materials.{key}] table or fix the name")
     return shape

@@ -85,9 +85,9 @@ def plot_layered(data: dict, path: Path) -> Path:
     if splats:
         right.plot([v["time_ms"] for _, v in splats], [v["ssim"] for _, v in splats], "^", color="C3",
                    label="spreadlets, depth layers")
-        for k, v in splats:
+        for i, (k, v) in enumerate(splats):   # staggered: the points often sit close together
             right.annotate(k.replace("spreadlets_", ""), (v["time_ms"], v["ssim"]), textcoords="offset points",
-                           xytext=(4, 4), fontsize=7, color="C3")
+                           xytext=(4, 4 + 9 * (i % 3)), fontsize=7, color="C3")
     for n, m in peeled:
         right.annotate(f"{n}", (m["time_ms"], m["ssim"]), textcoords="offset points", xytext=(4, -10), fontsize=8)
     right.set(xscale="log", xlabel="time per frame (ms)", ylabel="SSIM vs reference", title="quality against time")

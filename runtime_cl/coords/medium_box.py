@@ -1,0 +1,90 @@
+"""Coordinate map of ``volume_box``: each pixel's segment of its camera ray inside a box of medium.
+
+The pixel's ray leaves the centre of projection along (x / f_px, y / f_px, 1) (camera frame: x
+right, y up, z the optical axis) and ends at the point it sees, at distance D = Z sqrt(1 + (x^2 +
+y^2) / f_px^2). The box (centre, edge directions, half sizes in that frame: the input header's
+``medium.box``, which the database's fingerprint must match) cuts it by the slab method into
+[t0, t1] (clipped to [0, D]; empty: t0 = t1). The PSF coordinates are the three lengths the
+light crosses (:mod:`lab.psf_tracing.models.volume_box`): camera gap t0, length in the medium
+t1 - t0, and gap behind the box D - t1. Beside them the map returns, per pixel:
+
+- ``direct`` = exp(-sigma_t (t1 - t0)): the light that reaches the pixel unscattered, added
+  exactly (Beer-Lambert), since the database holds the scattered light only;
+- ``gain`` = 1 where the ray crosses medium, else 0: a pixel without medium scatters nothing (the
+  database's first cells average the halo over a range of lengths from 0, which is not 0).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from runtime_cl.coords.common import PsfCoords, as_depth, check_symmetries, expect_space, in_range, pixel_offsets, register
+from runtime_cl.errors import InputError
+from runtime_cl.psf.database import SpreadletDatabase
+
+NAMES = ("camera_gap_m", "medium_length_m", "light_gap_m")
+
+
+def box_segments(directions: np.ndarray, distance: np.ndarray, box: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(t0, t1), each shaped like ``distance``: the part [t0, t1] of each ray from the origin along
+    unit ``directions`` (..., 3) up to ``distance`` that lies inside ``box`` (``center``, ``axes``
+    rows, ``half_size``; camera frame). A ray missing the box has t0 = t1 (= its clipped entry)."""
+    axes = np.asarray(box["axes"], np.float64)
+    origin = axes @ -np.asarray(box["center"], np.float64)          # the camera in box coordinates
+    u = directions @ axes.T
+    half = np.asarray(box["half_size"], np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (-half - origin) / u
+        b = (half - origin) / u
+    # a ray parallel to a slab: inside it for all t, or never
+    parallel = u == 0
+    inside = np.abs(origin) < half
+    a = np.where(parallel, np.where(inside, -np.inf, np.inf), a)
+    b = np.where(parallel, np.where(inside, np.inf, -np.inf), b)
+    enter = np.minimum(a, b).max(axis=-1)
+    leave = np.maximum(a, b).min(axis=-1)
+    t0 = np.clip(enter, 0.0, distance)
+    t1 = np.clip(leave, 0.0, distance)
+    return t0, np.maximum(t1, t0)
+
+
+def pixel_rays(camera, depth) -> tuple[np.ndarray, np.ndarray]:
+    """(unit directions (H, W, 3), distances (H, W)) of each pixel's ray to the point it sees."""
+    z = as_depth(depth)
+    h, w = z.shape
+    f_px = camera.focal_px(w)
+    x, y = pixel_offsets(h, w)
+    d = np.stack([x / f_px, y / f_px, np.ones_like(x)], axis=-1)
+    norm = np.linalg.norm(d, axis=-1)
+    return d / norm[..., None], z * norm
+
+
+def header_box(db: SpreadletDatabase) -> dict:
+    """The box the database was traced for (its fingerprint's ``medium.box``)."""
+    box = ((db.params.get("fingerprint") or {}).get("medium") or {}).get("box")
+    if not isinstance(box, dict) or set(box) != {"center", "axes", "half_size"}:
+        raise InputError("volume_box database: its fingerprint holds no medium box; rebuild it with "
+                         "`splatlab precompute SCENE` on a scene whose [medium] has a box")
+    return box
+
+
+@register("volume_box")
+def volume_box_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfCoords:
+    """``volume_box``: (camera gap, length in the box, gap behind it) per pixel, with the exact
+    unscattered light ``direct`` and the ``gain`` of the scattered light (module docstring)."""
+    expect_space(db, "volume_box", NAMES)
+    check_symmetries(db, ("rotation",))
+    directions, distance = pixel_rays(camera, depth)
+    if not np.all(np.isfinite(distance)):
+        raise InputError(f"depth: {int(np.count_nonzero(~np.isfinite(distance)))} pixel(s) see nothing "
+                         "(infinite depth); a volume_box render needs every pixel's distance: close the view")
+    t0, t1 = box_segments(directions, distance, header_box(db))
+    length = t1 - t0
+    crossed = length > 0
+    sigma_t = float(db.params["fingerprint"]["medium"]["sigma_t"])
+    # pixels missing the box take the range's low corner: their gain is 0, their cell is never drawn
+    lows = [r[0] for r in db.grid.ranges]
+    parts = [np.where(crossed, v, lows[i]) for i, v in enumerate((t0, length, distance - t1))]
+    coords = [in_range(name, v, db, i, "m", lambda lo, hi, name=name: f"rebuild the database with a "
+                       f"{name} range holding [{lo:.4g}, {hi:.4g}]") for i, (name, v) in enumerate(zip(NAMES, parts))]
+    return PsfCoords(np.stack(coords, axis=-1), None, direct=np.exp(-sigma_t * length).astype(np.float32),
+                     gain=crossed.astype(np.float32))

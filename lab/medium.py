@@ -44,6 +44,8 @@ class Medium:
     def __post_init__(self):
         if isinstance(self.box, dict):
             object.__setattr__(self, "box", from_table(MediumBox, self.box, "box"))
+        elif self.box is not None and not isinstance(self.box, MediumBox):
+            raise UserError(f"box = {self.box!r} must be a table: box = {{ center = [x, y, z], size = [sx, sy, sz] }}")
         if isinstance(self.albedo, list):
             object.__setattr__(self, "albedo", tuple(float(a) for a in self.albedo))
         if not (isinstance(self.sigma_t, (int, float)) and math.isfinite(self.sigma_t) and self.sigma_t > 0):

@@ -32,9 +32,9 @@ class MediumBox:
         for key in ("center", "size"):
             v = getattr(self, key)
             if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v):
-                raise UserError(f"box {key} = {list(v)!r}: give three finite numbers in metres")
+                raise UserError(f"{key} = {list(v)!r}: give three finite numbers in metres")
         if not all(s > 0 for s in self.size):
-            raise UserError(f"box size = {list(self.size)!r}: every edge length must be > 0 metres "
+            raise UserError(f"size = {list(self.size)!r}: every edge length must be > 0 metres "
                             "(leave out box for a medium filling the scene)")
 
     @property
@@ -90,3 +90,15 @@ def camera_frame(box: MediumBox, camera) -> dict:
     center = rot @ (np.asarray(box.center, np.float64) - np.asarray(camera.position, np.float64))
     return {"center": [float(v) for v in center], "axes": [[float(v) for v in row] for row in rot.T],
             "half_size": [0.5 * float(s) for s in box.size]}
+
+
+def shapes_inside(box: MediumBox, shapes, source: str) -> list[bool]:
+    """Per shape: whether it lies inside the box (its surface then borders the medium). A shape across
+    the box's wall would have the medium on one side only in Mitsuba: a UserError naming it."""
+    sides = [box.side_of(shape_corners(shape)) for shape in shapes]
+    for i, side in enumerate(sides):
+        if side == "across":
+            raise UserError(f"{source} [[shapes]] #{i + 1} ({shapes[i].type}) crosses the wall of [medium] box "
+                            f"(centre {list(box.center)}, size {list(box.size)}); move it wholly inside or outside "
+                            "the box (its bounds decide), or resize the box")
+    return [side == "inside" for side in sides]

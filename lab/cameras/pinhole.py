@@ -118,6 +118,9 @@ def _filling_plan(scene) -> dict:
 
 def _box_plan(scene) -> dict:
     """A medium in a box: ``volume_box`` (scattered light by segment; the unscattered part exact)."""
+    from ..medium_box import shapes_inside
+
+    shapes_inside(scene.medium.box, scene.shapes, scene.source)   # the reference's check, before any render
     return {
         "dof": "none",
         "aperture": "none (pinhole)",

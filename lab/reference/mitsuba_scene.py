@@ -8,6 +8,7 @@ exact integral over its own area, the same footprint for the reference and the i
 """
 from __future__ import annotations
 
+from ..medium_box import shapes_inside
 from ..scene import Scene
 from ..scene_objects import Material, Shape
 from .backend import mitsuba
@@ -91,22 +92,6 @@ def _box_boundary(box) -> dict:
             "interior": {"type": "ref", "id": "medium"}}
 
 
-def _inside_box(scene: Scene) -> list[bool]:
-    """Per shape: whether it lies inside the medium's box (its surface then borders the medium).
-    A shape across the box's wall has the medium on one side only in Mitsuba: an error."""
-    from ..errors import UserError
-    from ..medium_box import shape_corners
-
-    box = scene.medium.box
-    sides = [box.side_of(shape_corners(shape)) for shape in scene.shapes]
-    for i, side in enumerate(sides):
-        if side == "across":
-            raise UserError(f"{scene.source} [[shapes]] #{i + 1} ({scene.shapes[i].type}) crosses the wall of "
-                            f"[medium] box (centre {list(box.center)}, size {list(box.size)}); move it wholly "
-                            "inside or outside the box (its bounds decide), or resize the box")
-    return [side == "inside" for side in sides]
-
-
 def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool = False) -> dict:
     """The whole Mitsuba scene dict (``mi.load_dict`` it) with a ``path`` integrator.
 
@@ -131,7 +116,7 @@ def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool =
                                            "max_depth": scene.render.max_depth},
            "sensor": sensor_dict(scene, sensor, spp)}
     box = scene.medium.box if fog else None
-    inside = [True] * len(scene.shapes) if box is None else (_inside_box(scene) if fog else [])
+    inside = [True] * len(scene.shapes) if box is None else shapes_inside(box, scene.shapes, scene.source)
     if fog:
         out["medium"] = _medium(scene.medium)
         if box is None or box.contains(scene.camera.position):

@@ -11,7 +11,10 @@ t1 - t0, and gap behind the box D - t1. Beside them the map returns, per pixel:
 - ``direct`` = exp(-sigma_t (t1 - t0)): the light that reaches the pixel unscattered, added
   exactly (Beer-Lambert), since the database holds the scattered light only;
 - ``gain`` = 1 where the ray crosses medium, else 0: a pixel without medium scatters nothing (the
-  database's first cells average the halo over a range of lengths from 0, which is not 0).
+  database's first cells average the halo over a range of lengths from 0, which is not 0);
+- ``receive`` = the same mask on the output: light reaches the camera scattered only from points
+  of the medium, i.e. only along the rays of pixels that cross the box. The PSFs, traced in an
+  unbounded shell, spread a light's halo across the frame; in a box it stops at the box's outline.
 """
 from __future__ import annotations
 
@@ -35,11 +38,12 @@ def box_segments(directions: np.ndarray, distance: np.ndarray, box: dict) -> tup
     with np.errstate(divide="ignore", invalid="ignore"):
         a = (-half - origin) / u
         b = (half - origin) / u
-    # a ray parallel to a slab: inside it for all t, or never
+    # a ray parallel to a slab: inside it for all t (enters at -inf, leaves at +inf), or never
+    # (enters at +inf, after it has left any other slab)
     parallel = u == 0
     inside = np.abs(origin) < half
     a = np.where(parallel, np.where(inside, -np.inf, np.inf), a)
-    b = np.where(parallel, np.where(inside, np.inf, -np.inf), b)
+    b = np.where(parallel, np.inf, b)
     enter = np.minimum(a, b).max(axis=-1)
     leave = np.maximum(a, b).min(axis=-1)
     t0 = np.clip(enter, 0.0, distance)
@@ -87,4 +91,4 @@ def volume_box_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfC
     coords = [in_range(name, v, db, i, "m", lambda lo, hi, name=name: f"rebuild the database with a "
                        f"{name} range holding [{lo:.4g}, {hi:.4g}]") for i, (name, v) in enumerate(zip(NAMES, parts))]
     return PsfCoords(np.stack(coords, axis=-1), None, direct=np.exp(-sigma_t * length).astype(np.float32),
-                     gain=crossed.astype(np.float32))
+                     gain=crossed.astype(np.float32), receive=crossed.astype(np.float32))

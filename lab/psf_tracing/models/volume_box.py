@@ -40,7 +40,6 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import drjit as dr
-import numpy as np
 from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, UInt32, UInt64
 
 from lab.errors import UserError
@@ -52,7 +51,7 @@ from lab.psf_tracing.models.volume import WALK_LANES, Volume, _emitted
 from lab.psf_tracing.models.volume_config import VolumeConfig
 from lab.psf_tracing.rng32 import Xoroshiro64
 from lab.psf_tracing.space import NestedGrid
-from lab.psf_tracing.tracer import RayHits, TraceResult
+from lab.psf_tracing.tracer import RayHits
 from lab.psf_tracing.walks import run_walks
 
 __all__ = ["VolumeBox", "VolumeBoxConfig"]
@@ -95,6 +94,9 @@ class VolumeBoxConfig(VolumeConfig):
                                 "tracked exactly); remove it")
         for key in ("max_camera_gap_m", "max_medium_length_m", "max_light_gap_m"):
             check_number(key, getattr(self, key))
+        if min(self.albedo) <= 0.0:
+            raise UserError(f"albedo = {list(self.albedo)!r}: a channel of albedo 0 scatters nothing, so its "
+                            "scattered-light PSFs are empty; give every channel an albedo > 0")
         box = (self.box_center, self.box_axes, self.box_half_size)
         if any(v is None for v in box) and any(v is not None for v in box):
             raise UserError("box_center, box_axes and box_half_size come together (the scene's [medium] box "
@@ -214,12 +216,3 @@ class VolumeBox(Volume):
         if box is not None:
             out["medium"]["box"] = box
         return out
-
-    def trace_checked(self, cell: int, n_rays: int | None = None, seed: int | None = None) -> TraceResult:
-        """:meth:`trace_cell`; a cell whose photons all went through unscattered (or a channel
-        absorbing all) has no scattered PSF: zeros, not 0/0."""
-        result = self.trace_cell(cell, n_rays, seed)
-        if not np.all(np.isfinite(result.psf)):
-            result = TraceResult(np.nan_to_num(result.psf, nan=0.0), result.counts, result.n_rays,
-                                 result.n_outside, result.n_blocked, result.seconds)
-        return result

@@ -57,11 +57,16 @@ def test_a_slab_of_medium_attenuates_each_pixel_by_its_own_path_and_adds_the_sca
     cell = int(db.grid.index(coords.coords[20, 20].astype(np.float64)[None])[0])
     psf = db.dense_psf(cell)                               # the cell's scattered light, stored with its energy
     c = psf.shape[0] // 2
-    assert image[20, 20] == pytest.approx(math.exp(-SIGMA * length[20, 20]) + psf[c, c], rel=1e-3)
+    # the cell's PSF scaled to the pixel's own scattered fraction (the cell holds its mean over [lo, hi])
+    lo, hi = db.grid.ranges[1]
+    gain = coords.gain[20, 20]
+    kept = (math.exp(-SIGMA * lo) - math.exp(-SIGMA * hi)) / (SIGMA * (hi - lo))   # one cell: the whole range
+    assert gain == pytest.approx((1 - math.exp(-SIGMA * length[20, 20])) / (1 - kept), rel=1e-5)
+    assert image[20, 20] == pytest.approx(math.exp(-SIGMA * length[20, 20]) + gain * psf[c, c], rel=1e-3)
     halo = image.sum(axis=(0, 1)) - image[20, 20]
     # the scattered light around the pixel is the PSF's less its centre (cut only where it leaves the
     # 40-px frame: the 33-px window fits inside it)
-    np.testing.assert_allclose(halo, psf.sum(axis=(0, 1)) - psf[c, c], rtol=1e-3)
+    np.testing.assert_allclose(halo, gain * (psf.sum(axis=(0, 1)) - psf[c, c]), rtol=1e-3)
     # Beer-Lambert takes 1 - exp(-0.8) = 55 % of the direct light; a forward-scattering medium gives a
     # good part of it back within the window
     assert np.all(0.1 < psf.sum(axis=(0, 1))) and np.all(psf.sum(axis=(0, 1)) < 1 - math.exp(-SIGMA))
@@ -78,3 +83,24 @@ def test_pixels_whose_rays_miss_the_box_are_untouched(cache):
     image = _render(_database(right), rgb)
     np.testing.assert_allclose(image[:, :20], rgb[:, :20], rtol=1e-6, atol=1e-7)
     assert not np.allclose(image[:, 20:], rgb[:, 20:], rtol=0.05)
+
+
+def test_the_runtime_finds_the_cell_range_each_psf_was_prefiltered_over():
+    """runtime_cl.coords.medium_box.cell_range (forward map) against the lab's inverse map
+    (lab.psf_tracing.space.boxes) for points all over a 3-D nested grid, with a power remap."""
+    from runtime_cl.coords.medium_box import cell_range, scattered_fraction_gain
+
+    model = VolumeBox(VolumeBoxConfig(samples=111, beta=1.7))
+    grid = model.grid
+    x = np.random.default_rng(2).uniform(0, 1, (2000, 3)) * [hi for _, hi in grid.ranges]
+    x[:50, 1] = 0.0                                             # the range's ends
+    x[50:100, 1] = grid.ranges[1][1]
+    cells = grid.index(x)
+    for dim in range(3):
+        lo, hi = cell_range(grid, x, dim)
+        np.testing.assert_allclose(lo, [model.boxes[i].lo[dim] for i in cells], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(hi, [model.boxes[i].hi[dim] for i in cells], rtol=1e-12, atol=1e-12)
+    # the gain undoes the pre-filter: its mean over a cell's lengths is 1
+    lengths = np.linspace(0.2, 0.7, 100001)
+    gain = scattered_fraction_gain(SIGMA, lengths, np.full_like(lengths, 0.2), np.full_like(lengths, 0.7))
+    assert gain.mean() == pytest.approx(1.0, rel=1e-6) and gain[0] < 0.5 < 1.3 < gain[-1]

@@ -96,7 +96,8 @@ class PinholeCamera(Camera):
 
 def _volpath_step(scene) -> Step:
     r = scene.render
-    return Step("mitsuba_volpath", f"Mitsuba volpath through the medium, {r.reference_spp} spp, max depth {r.max_depth}")
+    return Step("mitsuba_volpath", f"Mitsuba volpath through the medium, {r.reference_spp} spp, "
+                                   f"max depth {r.max_depth}")
 
 
 def _filling_plan(scene) -> dict:

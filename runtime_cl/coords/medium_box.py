@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.psf.grid import triangular, triangular_root
-from runtime_cl.coords.common import PsfCoords, as_depth, check_symmetries, expect_space, in_range, pixel_offsets, register
+from runtime_cl.coords.common import (PsfCoords, as_depth, check_symmetries, expect_space, in_range, pixel_offsets,
+                                      register)
 from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
 

@@ -112,8 +112,8 @@ class VolumeBoxConfig(VolumeConfig):
 class _ShellPhoton:
     """One photon's walk in the shell (a Dr.Jit struct): position ``p``, direction ``w``, the
     shell's radii ``r0``, ``r1`` and the camera sphere's ``d``, real collisions it still survives
-    ``left``, ``alive``, ``scattered`` (it has collided), ``hit`` (its camera crossing landed in the window, scattered),
-    ``pixel`` (packed), generator ``rng``."""
+    ``left``, ``alive``, ``scattered`` (it has collided), ``hit`` (it escaped scattered and its
+    camera crossing landed in the window), ``pixel`` (packed), generator ``rng``."""
 
     DRJIT_STRUCT = {"p": Array3f, "w": Array3f, "r0": Float, "r1": Float, "d": Float, "left": UInt32,
                     "alive": Bool, "scattered": Bool, "hit": Bool, "pixel": UInt32, "rng": Xoroshiro64}
@@ -160,7 +160,8 @@ class VolumeBox(Volume):
             d = r1 + dr.gather(Float, gap_cam, ray, valid)
             # clear air from the light to the shell: the photon enters it at radius r0
             return (_ShellPhoton(p=f.w * r0, w=f.w, r0=r0, r1=r1, d=d, left=f.left, alive=dr.full(Bool, True, m),
-                                 scattered=dr.full(Bool, False, m), hit=dr.full(Bool, False, m), pixel=dr.zeros(UInt32, m), rng=f.rng),)
+                                 scattered=dr.full(Bool, False, m), hit=dr.full(Bool, False, m),
+                                 pixel=dr.zeros(UInt32, m), rng=f.rng),)
 
         def step(ray, ph):
             tau = -log_unit(1.0 - ph.rng.next_float32()) * inv_sigma      # metres of medium to fly

@@ -112,6 +112,40 @@ def _volume(table: dict, scene, image) -> dict:
     return table
 
 
+def _volume_box(table: dict, scene, image) -> dict:
+    """The box medium (:func:`_volume`'s medium and pixel scale, the box in the camera's frame) and,
+    from each pixel's segment in the box (as the runtime maps it), the largest camera gap, length in
+    the box and gap behind it, rounded up to 0.5 m (at least 0.5 m)."""
+    import numpy as np
+    from runtime_cl.coords.medium_box import box_segments, pixel_rays
+
+    from .medium_box import camera_frame
+
+    camera = scene.camera.runtime_camera()
+    fov = math.radians(camera.fov_x_deg())
+    box = camera_frame(scene.medium.box, scene.camera)
+    keys = dict(scene.medium.model_keys(), width_px=image.width, sensor_width_mm=36.0,
+                focal_length_mm=18.0 / math.tan(fov / 2.0), box_center=tuple(box["center"]),
+                box_axes=tuple(tuple(a) for a in box["axes"]), box_half_size=tuple(box["half_size"]))
+    _from_camera(table, scene, "volume_box", keys)
+    depth = np.asarray(image.depth, np.float64)
+    sky = int(np.count_nonzero(~np.isfinite(depth)))
+    if sky:
+        raise UserError(f"{scene.source} [medium]: {sky} pixel(s) see no surface (infinite distance); the "
+                        "box's PSFs are traced by the distance behind the box: close the view with a wall or a floor")
+    directions, distance = pixel_rays(camera, depth)
+    t0, t1 = box_segments(directions, distance, box)
+    crossed = t1 > t0
+
+    def top(values):
+        return max(0.5, math.ceil(2.0 * float(values[crossed].max(initial=0.0))) / 2.0)
+
+    table.setdefault("max_camera_gap_m", top(t0))
+    table.setdefault("max_medium_length_m", top(t1 - t0))
+    table.setdefault("max_light_gap_m", top(distance - t1))
+    return table
+
+
 def near_window_px(scene) -> int:
     """The half-width in pixels of the image the scene's volume PSFs keep (their window less the
     tracer's margin): the far field (``volume_far``) holds the halo beyond it."""
@@ -213,7 +247,7 @@ def check_tables(scene, models) -> None:
 
 # Model name -> fill(table, scene, labelled input) -> table.
 SCENE_SETTINGS = {"simple_lens": _simple_lens, "combined": _combined, "stylized": _stylized, "volume": _volume,
-                  "volume_far": _volume_far, "physical_lens": _physical_lens}
+                  "volume_far": _volume_far, "volume_box": _volume_box, "physical_lens": _physical_lens}
 
 
 def model_table(scene, model_name: str, image) -> dict:

@@ -7,7 +7,8 @@
 - Plan: no defocus, so no PSF database; the pinhole render is its own reference and the runtime
   pass is ``identity``. With a ``[medium]`` (:class:`lab.medium.Medium`): the ``volume`` PSF model
   through the spreadlet passes against a Mitsuba ``volpath`` reference through the medium, with
-  the ``volume_far`` model's halo beyond the volume PSFs' window when the frame is wider; a
+  the ``volume_far`` model's halo beyond the volume PSFs' window when the frame is wider (a medium
+  in a box: the ``volume_box`` model, :data:`MEDIUM_PLANS`); a
   moving scene the ``combined`` model (CoC 0) against sub-frames (:func:`~lab.cameras.base.motion_plan`).
 - Mitsuba: the ``perspective`` sensor itself.
 """
@@ -77,20 +78,7 @@ class PinholeCamera(Camera):
                                 "combines motion and scattering: remove [medium] or the velocities")
             return motion_plan(scene, "none")
         if scene.medium is not None:
-            from ..psf_settings import far_field_needed, near_window_px
-
-            far = far_field_needed(scene)
-            window = f"the volume PSFs' window (+-{near_window_px(scene)} px)"
-            skipped = () if far else (Step("volume_far", f"{window} covers the frame: no halo reaches beyond it"),)
-            return {
-                "dof": "none",
-                "aperture": "none (pinhole)",
-                "psf_models": ("volume", "volume_far") if far else ("volume",),
-                "references": (Step("mitsuba_volpath", f"Mitsuba volpath through the medium, {r.reference_spp} "
-                                                       f"spp, max depth {r.max_depth}"),),
-                "runtime_passes": ("spreadlets", "splat", "filter"),
-                "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),) + skipped,
-            }
+            return MEDIUM_PLANS[scene.medium.psf_model](scene)
         return {
             "dof": "none",
             "aperture": "none (pinhole)",
@@ -104,3 +92,47 @@ class PinholeCamera(Camera):
 
     def mitsuba_sensor(self, sensor: dict) -> dict:
         return sensor
+
+
+def _volpath_step(scene) -> Step:
+    r = scene.render
+    return Step("mitsuba_volpath", f"Mitsuba volpath through the medium, {r.reference_spp} spp, "
+                                   f"max depth {r.max_depth}")
+
+
+def _filling_plan(scene) -> dict:
+    """A medium filling the scene: ``volume`` (+ ``volume_far`` when the window misses the frame)."""
+    from ..psf_settings import far_field_needed, near_window_px
+
+    far = far_field_needed(scene)
+    window = f"the volume PSFs' window (+-{near_window_px(scene)} px)"
+    skipped = () if far else (Step("volume_far", f"{window} covers the frame: no halo reaches beyond it"),)
+    return {
+        "dof": "none",
+        "aperture": "none (pinhole)",
+        "psf_models": ("volume", "volume_far") if far else ("volume",),
+        "references": (_volpath_step(scene),),
+        "runtime_passes": ("spreadlets", "splat", "filter"),
+        "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),) + skipped,
+    }
+
+
+def _box_plan(scene) -> dict:
+    """A medium in a box: ``volume_box`` (scattered light by segment; the unscattered part exact)."""
+    from ..medium_box import shapes_inside
+
+    shapes_inside(scene.medium.box, scene.shapes, scene.source)   # the reference's check, before any render
+    return {
+        "dof": "none",
+        "aperture": "none (pinhole)",
+        "psf_models": ("volume_box",),
+        "references": (_volpath_step(scene),),
+        "runtime_passes": ("spreadlets", "splat", "filter"),
+        "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),
+                    Step("volume_far", "a box medium has no far field: its halo is cut at the volume_box "
+                                       "PSFs' window (psf_resolution)")),
+    }
+
+
+# The medium's PSF model (lab.medium.Medium.psf_model) -> its plan.
+MEDIUM_PLANS = {"volume": _filling_plan, "volume_box": _box_plan}

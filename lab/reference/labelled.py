@@ -125,5 +125,5 @@ def render_labelled(scene: Scene, spp: int | None = None, pass_spp: int | None =
         extra.update({"motion.X": flow[..., 0], "motion.Y": flow[..., 1]})
     header = scene.camera.camera_json()
     if scene.medium is not None:
-        header["medium"] = scene.medium.header_json()   # the runtime adds it: the pixels are without it
+        header["medium"] = scene.medium.header_json(scene.camera)   # the runtime adds it: the pixels are without it
     return LabelledImage(rgb=rgb, alpha=alpha, depth=z, camera=header, extra=extra)

@@ -8,6 +8,7 @@ exact integral over its own area, the same footprint for the reference and the i
 """
 from __future__ import annotations
 
+from ..medium_box import shapes_inside
 from ..scene import Scene
 from ..scene_objects import Material, Shape
 from .backend import mitsuba
@@ -81,6 +82,16 @@ def _medium(m) -> dict:
             "phase": {"type": "hg", "g": float(m.g)}}
 
 
+def _box_boundary(box) -> dict:
+    """The box's wall: a ``cube`` ([-1, 1]^3 scaled and moved onto the box) with the ``null`` BSDF
+    (index-matched: light crosses it unchanged) and the medium as its interior (Mitsuba's
+    participating-media docs: a shape marks the transition into its ``interior`` medium)."""
+    mi = mitsuba()
+    to_world = mi.ScalarTransform4f().translate(list(box.center)).scale([0.5 * s for s in box.size])
+    return {"type": "cube", "to_world": to_world, "bsdf": {"type": "null"},
+            "interior": {"type": "ref", "id": "medium"}}
+
+
 def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool = False) -> dict:
     """The whole Mitsuba scene dict (``mi.load_dict`` it) with a ``path`` integrator.
 
@@ -96,22 +107,29 @@ def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool =
         Samples per pixel stored in the sampler (``mi.render(spp=...)`` may override it).
     medium : bool, default False
         Fill the scene with its ``[medium]`` (the reference; the labelled input is rendered
-        without it): a ``volpath`` integrator, the medium around the sensor and outside every shape.
+        without it): a ``volpath`` integrator, the medium around the sensor and outside every shape;
+        a medium with a ``box``: the interior of a null-BSDF cube (:func:`_box_boundary`), around
+        the sensor and the shapes inside the box only.
     """
     fog = medium and scene.medium is not None
     out = {"type": "scene", "integrator": {"type": "volpath" if fog else "path",
                                            "max_depth": scene.render.max_depth},
            "sensor": sensor_dict(scene, sensor, spp)}
+    box = scene.medium.box if fog else None
+    inside = [True] * len(scene.shapes) if box is None else shapes_inside(box, scene.shapes, scene.source)
     if fog:
         out["medium"] = _medium(scene.medium)
-        out["sensor"]["medium"] = {"type": "ref", "id": "medium"}
+        if box is None or box.contains(scene.camera.position):
+            out["sensor"]["medium"] = {"type": "ref", "id": "medium"}
+        if box is not None:
+            out["medium_box"] = _box_boundary(box)
     material_ids = {name: f"material_{i}" for i, name in enumerate(sorted(scene.materials))}
     for name, key in material_ids.items():
         m = scene.materials[name]
         out[key] = MATERIALS[m.type](m)
     for i, shape in enumerate(scene.shapes):
         out[f"shape_{i}"] = _shape(shape, material_ids)
-        if fog:
+        if fog and inside[i]:   # the medium surrounds it (filling the scene, or its box holds it)
             out[f"shape_{i}"]["exterior"] = {"type": "ref", "id": "medium"}
     for i, emitter in enumerate(scene.emitters):
         out[f"emitter_{i}"] = _emitter(emitter)

@@ -178,7 +178,7 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
         extra.update({"motion.X": flow[:, 0].reshape(h, w), "motion.Y": flow[:, 1].reshape(h, w)})
     header = scene.camera.camera_json()
     if scene.medium is not None:
-        header["medium"] = scene.medium.header_json()
+        header["medium"] = scene.medium.header_json(scene.camera)
     alpha = np.isfinite(depth).astype(np.float32).reshape(h, w)
     return LabelledImage(rgb=tr["rgb"].reshape(h, w, 3), alpha=alpha, depth=depth.reshape(h, w), camera=header,
                          extra=extra)

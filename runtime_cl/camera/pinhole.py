@@ -23,12 +23,32 @@ def _check_fov(value, where: str) -> None:
         raise InputError(f"{where} = {value!r} must be a number of degrees in (0, 180)")
 
 
+def _vector(v, positive: bool = False) -> bool:
+    return isinstance(v, list) and len(v) == 3 and all(is_number(x) and (x > 0 if positive else True) for x in v)
+
+
+def _check_box(value, where: str) -> None:
+    """The medium's optional ``"box"`` in the camera's frame (metres): ``center``, ``axes`` (three
+    unit edge directions, rows) and ``half_size`` (> 0)."""
+    fix = ('write it as {"center": [x, y, z], "axes": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "half_size": [hx, hy, hz]} '
+           "(camera frame: x right, y up, z forward), or leave it out for a medium filling the scene")
+    if not (isinstance(value, dict) and set(value) == {"center", "axes", "half_size"} and _vector(value["center"])
+            and _vector(value["half_size"], positive=True) and isinstance(value["axes"], list)
+            and len(value["axes"]) == 3 and all(_vector(a) for a in value["axes"])):
+        raise InputError(f"{where} = {value!r}: {fix}")
+    axes = np.asarray(value["axes"], np.float64)
+    if not np.allclose(axes @ axes.T, np.eye(3), atol=1e-6):
+        raise InputError(f"{where} axes = {value['axes']!r}: the box's edge directions must be orthonormal; {fix}")
+
+
 def _check_medium(value, where: str) -> None:
     """The header's ``"medium"`` (the fog a volume database adds): sigma_t > 0, albedo in [0, 1]^3,
-    g in (-1, 1)."""
-    fix = 'write it as {"sigma_t": 0.25, "albedo": [0.9, 0.9, 0.85], "g": 0.6}'
-    if not isinstance(value, dict) or set(value) != {"sigma_t", "albedo", "g"}:
+    g in (-1, 1), and optionally the ``box`` holding it."""
+    fix = 'write it as {"sigma_t": 0.25, "albedo": [0.9, 0.9, 0.85], "g": 0.6} (and optionally "box")'
+    if not isinstance(value, dict) or not {"sigma_t", "albedo", "g"} <= set(value) <= {"sigma_t", "albedo", "g", "box"}:
         raise InputError(f"{where} = {value!r}: {fix}")
+    if "box" in value:
+        _check_box(value["box"], f"{where} box")
     num = is_number
     albedo = value["albedo"]
     if not (num(value["sigma_t"]) and value["sigma_t"] > 0 and num(value["g"]) and -1 < value["g"] < 1

@@ -30,10 +30,21 @@ class PsfCoords(NamedTuple):
     angle : ndarray, float32, (H, W), or None
         Radians each pixel's stored PSF is turned by, in [-pi, pi); None: the model needs no
         rotation.
+    direct : ndarray, float32, (H, W), or None
+        The fraction of each pixel's light that reaches its own pixel unscattered, added exactly
+        beside the PSFs (which then hold the rest); None: the PSFs hold all of it.
+    gain : ndarray, float32, (H, W), or None
+        Each pixel's colour is multiplied by this before its PSF is drawn; None: 1.
+    receive : ndarray, float32, (H, W), or None
+        The drawn PSFs' image is multiplied by this per output pixel (where scattered light can
+        arrive at all); None: 1.
     """
 
     coords: np.ndarray
     angle: np.ndarray | None
+    direct: np.ndarray | None = None
+    gain: np.ndarray | None = None
+    receive: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

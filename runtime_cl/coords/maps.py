@@ -14,6 +14,8 @@ model              coordinates                                  angle
                                                                 (+ pi behind focus)
 ``physical_lens``  depth m, eccentricity px                     azimuth about the image centre
 ``volume``         light-camera distance m                      None
+``volume_box``     camera gap, length in the box, gap behind    None (and the exact unscattered
+                   it (m)                                       ``direct``, ``gain``)
 =================  ===========================================  ================================
 
 Angles are radians, counter-clockwise from image +x with y up (image rows grow downward), as
@@ -22,7 +24,7 @@ Out-of-range coordinates are an error that says how to rebuild the database, nev
 """
 from __future__ import annotations
 
-from runtime_cl.coords import defocus, lens  # noqa: F401  (they register the maps)
+from runtime_cl.coords import defocus, lens, medium_box  # noqa: F401  (they register the maps)
 from runtime_cl.coords.common import COORDINATE_MAPS, PsfCoords
 from runtime_cl.coords.defocus import thin_lens_coords
 from runtime_cl.psf.database import SpreadletDatabase

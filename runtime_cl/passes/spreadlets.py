@@ -71,6 +71,9 @@ class SpreadletPass(RuntimePass):
         coords = psf_coords(self.camera, frame.depth, self.db, motion)
         if self.layers == 1 and not self.layered_input:
             return np.asarray(frame.rgb), coords, far, None
+        if any(x is not None for x in (coords.direct, coords.gain, coords.receive)):
+            raise InputError(f"a {self.db.model!r} database adds each pixel's unscattered light on its own "
+                             "pixel, which depth layers do not composite; render the flat image (layers = 1)")
         return np.asarray(frame.rgb), coords, far, self._pixel_layers(frame, coords)
 
     def _pixel_layers(self, frame, coords) -> tuple:
@@ -103,7 +106,12 @@ class SpreadletPass(RuntimePass):
     def __call__(self, prepared):
         rgb, coords, far, layered = prepared
         if layered is None:
-            image, t = self.renderer.render(rgb, coords.coords, self.method, angle=coords.angle)
+            spread = rgb if coords.gain is None else rgb * coords.gain[..., None]
+            image, t = self.renderer.render(spread, coords.coords, self.method, angle=coords.angle)
+            if coords.receive is not None:
+                image = image * coords.receive[..., None]
+            if coords.direct is not None:   # the unscattered light, exact per pixel (host work)
+                image = image + rgb * coords.direct[..., None]
             device_ms = t["kernel_ms"] + t["integrate_device_ms"]
             transfer_ms = t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"]
             counts = {k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels")}

@@ -302,3 +302,25 @@ def test_bad_guard_band_header(work, capfd):
 ])
 def test_layer_and_guard_scene_keys(work, capfd, new, needles):
     fails_cleanly(["plan", scene(work, "seed = 7", new)], capfd, work, "s.toml", *needles)
+
+
+FOGBOX = (SCENES / "tiny_fogbox.toml").read_text()
+BOX = "box = { center = [-0.6, 0.9, 2.75], size = [1.4, 1.2, 1.5] }"
+
+
+@pytest.mark.parametrize("new, needles", [
+    ("box = { center = [-0.6, 0.9, 2.75], size = [1.4, 0.0, 1.5] }", ["[medium]: box: size = [1.4, 0.0, 1.5]", "> 0"]),
+    ("box = { center = [-0.6, 0.9, 2.75], size = [1.4, -1.2, 1.5] }", ["[medium]: box: size = [1.4, -1.2, 1.5]", "> 0"]),
+    ("box = { center = [nan, 0.9, 2.75], size = [1.4, 1.2, 1.5] }", ["medium.box.center[0] = nan"]),
+    ("box = { center = [-0.6, 0.9, 2.75], size = [1.4, inf, 1.5] }", ["medium.box.size[1] = inf"]),
+    ("box = { center = [-0.6, 0.9], size = [1.4, 1.2, 1.5] }", ["[medium]", "center", "3 entries"]),
+    ("box = { center = [-0.6, 0.9, 2.75], size = [1.4, 1.2, 1.5], rotate = [0, 1, 0] }", ["[medium]", "unknown key",
+                                                                                        "rotate"]),
+    ("box = [1, 2, 3]", ["[medium]", "box", "must be a table"]),
+    # the floor (y = 0) crosses a box reaching below it: Mitsuba would give it the medium on one side only
+    ("box = { center = [-0.6, 0.2, 2.75], size = [1.4, 1.2, 1.5] }", ["[[shapes]] #1 (rectangle)", "crosses the wall"]),
+])
+def test_medium_box_values(work, capfd, new, needles):
+    assert BOX in FOGBOX
+    (work / "s.toml").write_text(FOGBOX.replace(BOX, new, 1))
+    fails_cleanly(["plan", work / "s.toml"], capfd, work, "s.toml", *needles)

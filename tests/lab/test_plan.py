@@ -116,6 +116,25 @@ def test_a_medium_with_a_pinhole_plans_the_volume_model_and_volpath():
     assert make_plan(wide).psf_models == ("volume", "volume_far")           # halos beyond +-48 px
 
 
+def test_a_medium_in_a_box_plans_the_volume_box_model_and_its_reference_cube():
+    """A box: the volume_box model (no far field) against volpath; the Mitsuba scene holds the box as a
+    null-BSDF cube whose interior is the medium, the sensor outside it keeps no medium."""
+    from lab.reference.mitsuba_scene import scene_dict
+
+    s = parse_scene({"scene": {"name": "f", "resolution": [16, 8]},
+                     "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **PINHOLE},
+                     "medium": {"sigma_t": 0.5, "box": {"center": [0, 0, 3], "size": [1, 1, 1]}},
+                     "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
+    plan = make_plan(s)
+    assert plan.psf_models == ("volume_box",) and [r.name for r in plan.references] == ["mitsuba_volpath"]
+    assert "in a box centred at [0.0, 0.0, 3.0] m" in plan.effects["medium"]
+    assert "volume_far" in {x.name for x in plan.skipped}
+    d = scene_dict(s, medium=True)
+    assert d["integrator"]["type"] == "volpath" and "medium" not in d["sensor"]
+    assert d["medium_box"]["type"] == "cube" and d["medium_box"]["bsdf"] == {"type": "null"}
+    assert d["medium_box"]["interior"] == {"type": "ref", "id": "medium"}
+
+
 def test_a_medium_is_validated_and_a_thin_lens_cannot_carry_it():
     import pytest
 

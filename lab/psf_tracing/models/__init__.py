@@ -9,5 +9,6 @@ from lab.psf_tracing.models import stylized  # noqa: F401  (registers "stylized"
 from lab.psf_tracing.models import physical_lens  # noqa: F401  (registers "physical_lens")
 from lab.psf_tracing.models import volume  # noqa: F401  (registers "volume")
 from lab.psf_tracing.models import volume_far  # noqa: F401  (registers "volume_far")
+from lab.psf_tracing.models import volume_box  # noqa: F401  (registers "volume_box")
 
 __all__ = ["PSFModel", "get_model", "load_model", "model_names", "register_model"]

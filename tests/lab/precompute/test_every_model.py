@@ -19,6 +19,7 @@ TINY = {
     "stylized": {"max_coc_px": 6.0, "samples": 10, "psf_resolution": 21, "rays_per_pixel": 64, **_RAYS},
     "physical_lens": {"samples": 10, "psf_resolution": 181, "rays_per_pixel": 16, **_RAYS},
     "volume": {"samples": 10, "psf_resolution": 63, **_RAYS},
+    "volume_box": {"samples": 20, "psf_resolution": 63, **_RAYS},
 }
 
 

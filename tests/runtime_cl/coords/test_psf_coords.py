@@ -33,7 +33,7 @@ def coc(depth, width):
 
 
 def test_every_model_has_a_map():
-    assert sorted(COORDINATE_MAPS) == ["combined", "physical_lens", "simple_lens", "stylized", "volume"]
+    assert sorted(COORDINATE_MAPS) == ["combined", "physical_lens", "simple_lens", "stylized", "volume", "volume_box"]
     assert needs_motion("combined") and not needs_motion("simple_lens") and not needs_motion("volume")
     with pytest.raises(InputError, match="no coordinate map for it"):
         needs_motion("polygon")

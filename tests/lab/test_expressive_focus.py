@@ -8,6 +8,8 @@ measured), p shows the mean of |q - p|^2 over its disc (about r^2 / 2 + 1/6 for 
 radius r: each ray takes the radiance of the pixel it lands in; :func:`_table` integrates it). So one render measures each constrained pixel's blur radius: constrained
 in-focus pixels are sharp, out-of-focus constrained pixels reach their asked radius, and the radius
 grows monotonically as the wall moves away from the surface. The scene file's bad values exit 2 in one line naming the file and key."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -180,3 +182,24 @@ def test_no_reference_means_no_noise_floor_and_no_table(tmp_path, capfd):
     before any render, naming the scene and why it has none."""
     plan_fails(tmp_path, capfd, SURFACE, "--noise-floor scores against a reference", "has no physical reference",
                argv=("report", "--noise-floor"))
+
+
+def test_the_plan_runs_every_thin_lens_pass_and_no_reference():
+    """scenes/tiny_expressive.toml: blur 0 on two house fronts and 6 px on a far corner, resolved from the
+    depths the pixels' pinhole rays see (Mitsuba); the plan runs the passes that read the per-pixel
+    focus against no reference, and says why."""
+    from lab.focus import pixel_depths
+    from lab.pipeline import load_scene_and_plan
+
+    scene, plan = load_scene_and_plan(SCENES / "tiny_expressive.toml")
+    assert not plan.scored and plan.references[0].name == "none"
+    assert plan.runtime_passes == ("spreadlets", "splat", "filter", "layered")
+    text = plan.describe()
+    assert "has no physical reference" in text and "scores against mitsuba_thinlens" in text
+    assert "expressive focal surface from 3 constraints" in plan.effects["dof"]
+    cam = scene.camera.runtime_camera()
+    pixels = [(60, 27), (39, 56), (20, 20)]
+    z = pixel_depths(replace(scene, camera=replace(scene.camera, focal_surface=None)), pixels)
+    w_f = cam.inverse_focus_map(scene.height, scene.width)
+    coc = [cam.coc_scale_px(scene.width) * (w_f[y, x] - 1.0 / d) for (x, y), d in zip(pixels, z)]
+    np.testing.assert_allclose(coc, [0.0, 0.0, 6.0], atol=1e-9)

@@ -1,9 +1,10 @@
 """Focus control from pixels (LES10 5.1): a focus point, and tilt-shift from several.
 
 ``[camera] focus_point = [x, y]`` (pixel column, row from the top) focuses the lens at the depth
-the labelled input sees there (its Z); ``focus_points = [[x, y], ...]`` (>= 3, thin lens) fits a
-plane through the 3-D points they see by least squares and tilts the sensor so the plane is in
-focus (Scheimpflug, :func:`runtime_cl.camera.focal_surface.scheimpflug_tilt`).
+the labelled input sees there (its Z); ``focus_points = [[x, y], ...]`` (>= 3) fits a plane through
+the 3-D points they see by least squares and tilts the sensor so the plane is in focus
+(Scheimpflug: the camera's ``plane_focus``, the thin lens's equation or the thick lens's traced
+images, :mod:`lab.optics.tilt`).
 
 The input's field of view depends on the focus (a thin lens breathes: the image distance moves),
 so the depth a pixel sees does too: :func:`resolve_focus` iterates focus -> pinhole depths ->
@@ -16,8 +17,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-
-from runtime_cl.camera.focal_surface import scheimpflug_tilt
 
 from .errors import UserError
 
@@ -126,7 +125,7 @@ def _focus_from(scene) -> dict:
                          for (x, y), d in zip(pixels, z)])
     n, c = fit_plane(points, "focus_points")
     try:
-        focus, tilt = scheimpflug_tilt(n, c, camera.focal_length_mm / 1000.0)
+        focus, tilt = camera.plane_focus(points, n, c, w)
     except UserError as exc:
         raise UserError(f"focus_points {[list(p) for p in camera.focus_points]}: {exc}") from None
     return {"focus_distance_m": focus, "sensor_tilt_deg": tilt}

@@ -27,6 +27,7 @@ import math
 import typing
 from dataclasses import dataclass
 
+from runtime_cl.camera.focal_surface import scheimpflug_tilt
 from runtime_cl.camera.thin_lens import ThinLens
 
 from ..config import from_table
@@ -133,6 +134,11 @@ class ThinCamera(Camera):
                             f"({self.focal_length_mm} mm); use a focus distance > "
                             f"{self.focal_length_mm / 1000.0} m")
         self.iris(), self.shaped()  # validates the aperture table
+
+    def plane_focus(self, points, normal, offset: float, width_px: int) -> tuple:
+        """(focus distance m, sensor tilt deg) that focus the plane ``normal . X = offset`` (camera
+        space, m): the lens equation (:func:`runtime_cl.camera.focal_surface.scheimpflug_tilt`)."""
+        return scheimpflug_tilt(normal, offset, self.focal_length_mm / 1000.0)
 
     def iris(self) -> Iris | None:
         """The polygonal iris of ``aperture``, ``None`` for a round or stylized aperture."""

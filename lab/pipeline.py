@@ -17,6 +17,7 @@ from pathlib import Path
 from runtime_cl.atomic_file import check_output, check_output_dir, remove_stale_temps
 
 from .cache_key import code_digest
+from .errors import UserError
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
 from .parallel import Executor
 from .paths import REPORTS, cache_root
@@ -93,6 +94,9 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
         info["input_s"] = round(time.perf_counter() - t, 2)
     info.update(steps=[s.name for s in plan.references], input_spp=scene.render.input_spp)
     if not plan.scored:   # nothing physical to render (an expressive focal surface): say so
+        if second:
+            raise UserError(f"{scene.source}: a second reference (the noise floor) needs a reference, and this "
+                            f"scene has none ({plan.references[0].detail})")
         info["none"] = plan.references[0].detail
         return image, None, info
     reference, info["reference_s"] = _reference(scene, plan, image, ref_path, executor, progress)

@@ -203,3 +203,8 @@ def test_the_plan_runs_every_thin_lens_pass_and_no_reference():
     w_f = cam.inverse_focus_map(scene.height, scene.width)
     coc = [cam.coc_scale_px(scene.width) * (w_f[y, x] - 1.0 / d) for (x, y), d in zip(pixels, z)]
     np.testing.assert_allclose(coc, [0.0, 0.0, 6.0], atol=1e-9)
+
+
+def test_benches_refuse_a_scene_without_reference(tmp_path, capfd):
+    plan_fails(tmp_path, capfd, SURFACE, "--scene", "the benches score against a reference", "bench another scene",
+               argv=("bench", "layered", "--scene"))

@@ -104,6 +104,9 @@ def cmd_reference(args) -> int:
     with executor:
         image, reference, _ = inputs_and_reference(scene, plan, progress=not args.quiet, executor=executor)
     write_labelled(out / "input.exr", image)
+    if reference is None:   # an expressive focal surface: nothing physical to render
+        print(f"input (labelled pixels): {out / 'input.exr'}\nreference: none ({plan.references[0].detail})")
+        return 0
     write_rgb(out / "reference.exr", reference)
     print(f"input (labelled pixels): {out / 'input.exr'}\nreference: {out / 'reference.exr'}")
     return 0
@@ -223,6 +226,9 @@ def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False, s
     for name, m in report["methods"].items():
         corrected = m.get("noise_corrected_psnr")
         said = f"   noise-corrected PSNR {corrected:.2f} dB" if corrected is not None else ""
+        if m.get("ssim") is None:
+            print(f"  {name:<11} {m['time_ms']:9.1f} ms   unscored (no reference)")
+            continue
         print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB{said}")
     floor = report["reference"].get("noise_floor")
     if floor:
@@ -254,7 +260,14 @@ def cmd_report(args) -> int:
         sweep, noise = select_knobs(args.knobs), True   # the sweep's points get noise-corrected PSNRs
     elif getattr(args, "knobs", None) is not None:
         raise UserError(f"--knobs {','.join(args.knobs)}: --knobs chooses what --sweep turns; add --sweep")
-    names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work
+    loaded = [load_scene_and_plan(s) for s in scenes]               # every scene valid before hours of work
+    names = [scene.name for scene, _ in loaded]
+    for path, (_, plan) in zip(scenes, loaded):
+        if not plan.scored and (noise or len(scenes) > 1 or args.baseline is not None):
+            what = ("--sweep" if sweep is not None else "--noise-floor" if noise else
+                    "--baseline" if args.baseline is not None else "LSR18 Table 2 over several scenes")
+            raise UserError(f"{path}: {what} scores against a reference, and this scene has none "
+                            f"({plan.references[0].detail}); report it alone without {what}")
     if len(set(names)) < len(names):
         raise UserError(f"scenes {[str(s) for s in scenes]} share a name ({names}); each report needs its own")
     if len(scenes) > 1:

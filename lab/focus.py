@@ -1,9 +1,10 @@
 """Focus control from pixels (LES10 5.1): a focus point, and tilt-shift from several.
 
 ``[camera] focus_point = [x, y]`` (pixel column, row from the top) focuses the lens at the depth
-the labelled input sees there (its Z); ``focus_points = [[x, y], ...]`` (>= 3, thin lens) fits a
-plane through the 3-D points they see by least squares and tilts the sensor so the plane is in
-focus (Scheimpflug, :func:`runtime_cl.camera.focal_surface.scheimpflug_tilt`).
+the labelled input sees there (its Z); ``focus_points = [[x, y], ...]`` (>= 3) fits a plane through
+the 3-D points they see by least squares and tilts the sensor so the plane is in focus
+(Scheimpflug: the camera's ``plane_focus``, the thin lens's equation or the thick lens's traced
+images, :mod:`lab.optics.tilt`).
 
 The input's field of view depends on the focus (a thin lens breathes: the image distance moves),
 so the depth a pixel sees does too: :func:`resolve_focus` iterates focus -> pinhole depths ->
@@ -17,11 +18,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from runtime_cl.camera.focal_surface import scheimpflug_tilt
-
 from .errors import UserError
 
-__all__ = ["check_pixels", "depth_at", "fit_plane", "pixel_depths", "refocus_header", "refocus_option", "resolve_focus"]
+__all__ = ["check_pixels", "depth_at", "surface_from_depth", "fit_plane", "pixel_depths", "refocus_header", "refocus_option", "resolve_focus"]
 
 ROUNDS = 12           # fixed-point rounds; focus breathing converges in 2-4
 TOLERANCE = 1e-7      # relative change of the focus distance that ends them
@@ -126,7 +125,7 @@ def _focus_from(scene) -> dict:
                          for (x, y), d in zip(pixels, z)])
     n, c = fit_plane(points, "focus_points")
     try:
-        focus, tilt = scheimpflug_tilt(n, c, camera.focal_length_mm / 1000.0)
+        focus, tilt = camera.plane_focus(points, n, c, w)
     except UserError as exc:
         raise UserError(f"focus_points {[list(p) for p in camera.focus_points]}: {exc}") from None
     return {"focus_distance_m": focus, "sensor_tilt_deg": tilt}
@@ -137,6 +136,9 @@ def resolve_focus(scene):
     without them); UserError naming the scene file and the key for a pixel outside the image, on
     the sky, or points that fit no usable focal plane."""
     cam = scene.camera
+    surface = getattr(cam, "focal_surface", None)
+    if surface is not None:
+        return _resolve_surface(scene)
     if getattr(cam, "focus_point", None) is None and getattr(cam, "focus_points", None) is None:
         return scene
     where = f"{scene.source} [camera]"
@@ -153,6 +155,42 @@ def resolve_focus(scene):
     except UserError as exc:
         raise UserError(f"{where} {exc}") from None
     return replace(scene, camera=replace(cam, **fields))
+
+
+def _resolve_surface(scene):
+    """``scene`` with its focal surface's pixels checked against the image and its ``blur``
+    constraints turned into focal depths (:mod:`lab.focal_constraints`), from the depths the
+    constraint pixels' pinhole rays see (the input's Z there: the focus distance is given, so the
+    field of view does not breathe)."""
+    from .focal_constraints import check_pixels_in, resolve_blur
+
+    cam, where = scene.camera, f"{scene.source} [camera]"
+    check_pixels_in(cam.focal_surface, scene.width, scene.height, where)
+    lens = replace(cam, focal_surface=None).runtime_camera()
+    scale = lens.coc_scale_px(scene.width) / cam.focal_surface["dof_extent"]
+
+    def depths(pixels):
+        try:
+            return _depths(replace(scene, camera=replace(cam, focal_surface=None)), pixels, "focal_surface blur")
+        except UserError as exc:
+            raise UserError(f"{where} {exc}") from None
+
+    return replace(scene, camera=replace(cam, focal_surface=resolve_blur(cam.focal_surface, scale, depths, where)))
+
+
+def surface_from_depth(camera, depth: np.ndarray, source: str):
+    """A ``--camera`` file's thin camera with its ``blur`` constraints resolved from ``depth`` (the
+    input's Z, inf where it sees no surface); unchanged without them."""
+    from .focal_constraints import check_pixels_in, resolve_blur, unresolved
+
+    surface = getattr(camera, "focal_surface", None)
+    if not unresolved(surface):
+        return camera
+    h, w = depth.shape
+    check_pixels_in(surface, w, h, source)
+    scale = replace(camera, focal_surface=None).runtime_camera().coc_scale_px(w) / surface["dof_extent"]
+    lookup = lambda pixels: [depth_at(depth, x, y, f"{source} focal_surface blur") for x, y in pixels]   # noqa: E731
+    return replace(camera, focal_surface=resolve_blur(surface, scale, lookup, source))
 
 
 def refocus_header(camera: dict, depth: np.ndarray, x: int, y: int, source: str) -> dict:

@@ -17,6 +17,7 @@ from pathlib import Path
 from runtime_cl.atomic_file import check_output, check_output_dir, remove_stale_temps
 
 from .cache_key import code_digest
+from .errors import UserError
 from .exr_io import LabelledImage, read_labelled, read_rgb, write_labelled, write_rgb
 from .parallel import Executor
 from .paths import REPORTS, cache_root
@@ -64,6 +65,8 @@ def reseeded(scene: Scene, stream: int, **render) -> Scene:
 def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
                          executor: Executor | None = None, second: bool = False) -> tuple:
     """The labelled-pixel input and the reference of ``scene`` (cached); returns (input, reference, info).
+    A plan with no reference (:attr:`lab.plan.Plan.scored` false) gives reference None and the
+    reason in ``info["none"]``.
 
     The reference's passes run where ``executor`` says (default: this process), each cached in
     ``<cache>/renders/<scene>-<key>/reference-passes/`` until ``reference.exr`` is written, so an
@@ -89,11 +92,17 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
         image = render_labelled(scene, progress=progress)
         write_labelled(input_path, image)
         info["input_s"] = round(time.perf_counter() - t, 2)
+    info.update(steps=[s.name for s in plan.references], input_spp=scene.render.input_spp)
+    if not plan.scored:   # nothing physical to render (an expressive focal surface): say so
+        if second:
+            raise UserError(f"{scene.source}: a second reference (the noise floor) needs a reference, and this "
+                            f"scene has none ({plan.references[0].detail})")
+        info["none"] = plan.references[0].detail
+        return image, None, info
     reference, info["reference_s"] = _reference(scene, plan, image, ref_path, executor, progress)
     if not isinstance(info["reference_s"], str) and plan.references[0].name != "pinhole":
         info["reference_on"] = executor.describe()
-    info.update(reference_spp=scene.render.reference_spp, input_spp=scene.render.input_spp,
-                steps=[s.name for s in plan.references])
+    info.update(reference_spp=scene.render.reference_spp)
     if second and plan.references[0].name != "pinhole":
         other = reseeded(scene, 1)
         again, seconds = _reference(other, plan, image, folder / "reference_b.exr", executor, progress)

@@ -16,6 +16,9 @@ from .errors import UserError
 from .motion import describe_motion, scene_moves
 
 
+NO_REFERENCE = "none"   # the reference step of a plan nothing physical can be scored against
+
+
 @dataclass(frozen=True)
 class Step:
     """One thing to produce (a reference, an input) or to skip: ``name`` and a one-line ``detail``."""
@@ -66,6 +69,11 @@ class Plan:
     runtime_passes: tuple[str, ...]
     skipped: tuple[Step, ...]
     pass_runs: dict = field(default_factory=dict)
+
+    @property
+    def scored(self) -> bool:
+        """False when the plan has no reference to score the methods against (:data:`NO_REFERENCE`)."""
+        return self.references[0].name != NO_REFERENCE
 
     def pass_run(self, label: str) -> tuple:
         """``(registered runtime pass, options)`` of the runtime pass ``label``."""

@@ -134,7 +134,16 @@ def read_input(path, camera_file=None):
 
     camera = None
     if camera_file is not None:
+        import numpy as np
+
+        from .focal_constraints import unresolved
+        from .focus import surface_from_depth
         from .scene import load_camera
 
-        camera = load_camera(camera_file).camera_json()
+        cam = load_camera(camera_file)
+        if unresolved(getattr(cam, "focal_surface", None)):   # blur constraints: the depths the input sees
+            image = read_labelled(path)
+            depth = np.where(np.asarray(image.alpha) > 0, np.asarray(image.depth, np.float64), np.inf)
+            cam = surface_from_depth(cam, depth, f"{camera_file} [camera]")
+        camera = cam.camera_json()
     return read_labelled(path, camera=camera)

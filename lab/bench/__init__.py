@@ -90,6 +90,12 @@ def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = Tr
         raise UserError(f"--repeats {repeats}: must be an integer >= 1")
     if what not in BENCHES:
         raise UserError(f"bench {what!r}: unknown; choose one of {list(BENCHES)}")
+    from lab.pipeline import load_scene_and_plan
+
+    plan = load_scene_and_plan(scene_path)[1]
+    if not plan.scored:   # every bench scores its methods against the scene's reference
+        raise UserError(f"--scene {scene_path}: the benches score against a reference, and this scene has none "
+                        f"({plan.references[0].detail}); bench another scene")
     args = {"scene": scene_path, "repeats": repeats, "models": models, "build": build,
             "workers": workers, "quick": quick}
     return [path for bench in BENCHES[what] for path in bench(args)]

@@ -5,6 +5,9 @@
   the aperture stop, ``inf`` = a flat face; :class:`lab.optics.thick_lens.Surface`), and
   ``focus_distance_m`` (metres from the entrance pupil); the sensor moves to the plane where a
   point at that distance has the smallest spot (:class:`lab.optics.lens_camera.ThickLensCamera`).
+  Tilt-shift: ``focus_points = [[x, y], ...]`` (>= 3) tilt the sensor to focus their least-squares
+  plane (the tilt traced through the lens, :mod:`lab.optics.tilt`), or ``sensor_tilt_deg`` by hand;
+  a tilted sensor runs the layered pass only, against the tilted Mitsuba sensor.
   ``position`` is the entrance pupil's centre: depths are measured from it, and the labelled
   pixels are a pinhole's there with the paraxial chief-ray scale.
 - Runtime twin: :class:`runtime_cl.camera.thick_lens.ThickLens`.
@@ -27,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from runtime_cl.camera.focal_surface import check_tilt, scheimpflug_tilt
 from runtime_cl.camera.thick_lens import ROW, ThickLens
 from runtime_cl.camera.thick_lens import surface_rows as runtime_surface_rows
 
@@ -82,6 +86,12 @@ class ThickCamera(Camera):
     focus_point : (int, int), optional
         Instead of ``focus_distance_m``: the pixel (column, row from the top) whose depth is in focus
         (:mod:`lab.focus`; the sensor moves to focus it).
+    focus_points : list of (int, int), optional
+        Instead of ``focus_distance_m``: >= 3 pixels; the sensor tilts to focus their least-squares
+        plane, the tilt found by tracing their images through the lens (:mod:`lab.optics.tilt`).
+    sensor_tilt_deg : (float, float), default (0, 0)
+        The sensor's tilt: its z grows by tan(tx) per mm of sensor x and tan(ty) per mm of sensor y
+        (:class:`runtime_cl.camera.thick_lens.ThickLens`); by hand or from ``focus_points``.
     """
 
     runtime = ThickLens
@@ -89,16 +99,18 @@ class ThickCamera(Camera):
     surfaces: typing.Any = None
     focus_distance_m: float | None = None
     focus_point: tuple[int, int] | None = None
-
-    focus_points = None   # a tilted sensor is the thin lens's (lab.focus)
+    focus_points: tuple[tuple[int, int], ...] | None = None
+    sensor_tilt_deg: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThickCamera":
-        if "focus_points" in table or "sensor_tilt_deg" in table:
-            raise UserError(f"{where}: focus_points / sensor_tilt_deg: tilt-shift (Scheimpflug) is modelled for the "
-                            "thin lens; use model = 'thin', or one focus_point = [x, y]")
-        if "focus_point" in table and "focus_distance_m" in table:
-            raise UserError(f"{where}: focus_point and focus_distance_m: give one way to focus; remove the other")
+        given = [k for k in ("focus_distance_m", "focus_point", "focus_points") if k in table]
+        if len(given) > 1:
+            raise UserError(f"{where}: {given}: give one way to focus (a distance, a pixel, or >= 3 pixels for a "
+                            "tilted focal plane); remove the others")
+        if "focus_points" in table and "sensor_tilt_deg" in table:
+            raise UserError(f"{where}: focus_points and sensor_tilt_deg: the focus points set the tilt; remove "
+                            "sensor_tilt_deg")
         other = [k for k in THIN_KEYS if k in table]
         if other:
             raise UserError(f"{where}: {other}: a thick lens's focal length, f-number, field of view and aperture "
@@ -115,11 +127,18 @@ class ThickCamera(Camera):
                             f"surfaces = [{ROW}, ...]")
         if self.surfaces is not None:
             object.__setattr__(self, "surfaces", surface_rows(self.surfaces))
-        if self.focus_point is not None and min(self.focus_point) < 0:
-            raise UserError(f"focus_point = {list(self.focus_point)}: pixels are [column, row] counted from 0 at the "
-                            "top left")
+        for p in ([self.focus_point] if self.focus_point is not None else []) + list(self.focus_points or ()):
+            if min(p) < 0:
+                raise UserError(f"focus pixel {list(p)}: pixels are [column, row] counted from 0 at the top left")
+        if self.focus_points is not None and len(self.focus_points) < 3:
+            raise UserError(f"focus_points = {[list(p) for p in self.focus_points]}: a focal plane needs >= 3 "
+                            "points; give more, or one focus_point = [x, y]")
+        try:
+            object.__setattr__(self, "sensor_tilt_deg", check_tilt(self.sensor_tilt_deg, ""))
+        except UserError as exc:
+            raise UserError(str(exc).strip()) from None
         if self.focus_distance_m is None:
-            if self.focus_point is not None:   # resolved from the input's depth (lab.focus)
+            if self.focus_point is not None or self.focus_points is not None:   # resolved by lab.focus
                 return
             raise UserError("a thick lens needs focus_distance_m (metres from its entrance pupil) or focus_point = [x, y]")
         self.optics()
@@ -156,10 +175,31 @@ class ThickCamera(Camera):
         from ..optics.exit_pupil import ExitPupil
 
         half = 0.5 * math.hypot(self.sensor_width_mm, self.sensor_width_mm * height_px / width_px)
+        gx, gy = (math.tan(math.radians(t)) for t in self.sensor_tilt_deg)
+        shift = 0.5 * (abs(gx) * self.sensor_width_mm + abs(gy) * self.sensor_width_mm * height_px / width_px)
         try:
-            ExitPupil.build(self.optics(), FOCUS_WAVELENGTH_NM, half, n_radii=16, grid=96)
+            ExitPupil.build(self.optics(), FOCUS_WAVELENGTH_NM, half, n_radii=16, grid=96, slopes=(gx, gy),
+                            shift_mm=shift)
         except UserError as exc:
             raise UserError(f"{where} {self._key()}: {exc}") from None
+
+    def plane_focus(self, points, normal, offset: float, width_px: int) -> tuple:
+        """(focus distance m, sensor tilt deg) that focus the plane ``normal . X = offset`` through
+        ``points`` ((n, 3) camera space, m, from the entrance pupil): the sensor plane through the
+        points' images traced through the lens (:func:`lab.optics.tilt.sensor_plane`), its axial
+        point the focus distance's image; the thin-lens checks refuse a plane along the view
+        direction or through the lens first, and a tilt beyond the limit is refused."""
+        from dataclasses import replace
+
+        from ..optics.tilt import distance_for_sensor_z, sensor_plane
+
+        lens = self.optics().lens
+        focus, _ = scheimpflug_tilt(normal, offset, lens.effective_focal_length_mm(FOCUS_WAVELENGTH_NM) / 1000.0)
+        cam = replace(self, focus_distance_m=focus, focus_point=None, focus_points=None,
+                      sensor_tilt_deg=(0.0, 0.0)).optics(width_px)
+        z0, gx, gy = sensor_plane(cam.lens, points, cam.pupil_z_mm, FOCUS_WAVELENGTH_NM)
+        tilt = (math.degrees(math.atan(gx)), math.degrees(math.atan(gy)))
+        return distance_for_sensor_z(lens, z0, FOCUS_WAVELENGTH_NM, FOCUS), check_tilt(tilt, "focal plane: it needs")
 
     def stop_radius_mm(self) -> float:
         """The aperture stop's semi-aperture."""
@@ -167,16 +207,17 @@ class ThickCamera(Camera):
 
     def runtime_camera(self) -> ThickLens:
         if self.focus_distance_m is None:
-            raise UserError("focus_point: the focus is not resolved yet; load the scene with "
+            raise UserError("focus_point(s): the focus is not resolved yet; load the scene with "
                             "lab.pipeline.load_scene_and_plan (lab.focus.resolve_focus)")
         cam = self.optics()
+        pixels = [self.focus_point] if self.focus_point is not None else list(self.focus_points or ())
         return ThickLens(surfaces=self.rows(), focus_distance_m=self.focus_distance_m, focus=FOCUS,
                          sensor_width_mm=self.sensor_width_mm,
                          focal_length_mm=cam.lens.effective_focal_length_mm(FOCUS_WAVELENGTH_NM),
                          chief_scale_mm=cam.chief_scale_mm, pupil_radius_mm=cam.pupil_radius_mm,
                          sensor_z_mm=cam.sensor_z_mm, pupil_z_mm=cam.pupil_z_mm, wavelengths_nm=WAVELENGTHS_NM,
                          indices=tuple(cam.lens.indices(w) for w in WAVELENGTHS_NM),
-                         focus_points=(tuple(self.focus_point),) if self.focus_point is not None else ())
+                         focus_points=tuple(tuple(p) for p in pixels), sensor_tilt_deg=self.sensor_tilt_deg)
 
     def camera_json(self) -> dict:
         return {**self.runtime_camera().to_json(), "shutter": self.header_shutter()}
@@ -190,7 +231,8 @@ class ThickCamera(Camera):
             raise UserError(f"{source} focus = {data['focus']!r}: the lab's thick lens focuses {FOCUS!r}")
         try:
             camera = cls(model="thick", position=(0.0, 0.0, 0.0), look_at=(0.0, 0.0, 1.0), surfaces=rows,
-                         focus_distance_m=data["focus_distance_m"], sensor_width_mm=data["sensor_width_mm"])
+                         focus_distance_m=data["focus_distance_m"], sensor_width_mm=data["sensor_width_mm"],
+                         sensor_tilt_deg=tuple(data.get("sensor_tilt_deg", (0.0, 0.0))))
         except UserError as exc:
             raise UserError(f"{source}: {exc}") from None
         derived = camera.runtime_camera().to_json()
@@ -211,6 +253,8 @@ class ThickCamera(Camera):
                             "model = \"thin\" for motion blur")
         self.check_sensor(scene.width, scene.height, f"{scene.source} [camera]")
         r = scene.render
+        if self.runtime_camera().tilted:
+            return self._plan_tilted(scene)
         nm = "/".join(f"{w:g}" for w in WAVELENGTHS_NM)
         rule = {
             "dof": self._dof(),
@@ -228,12 +272,38 @@ class ThickCamera(Camera):
         }
         return with_layered_pass(rule, scene)   # LES10: the lens's own rays through peeled layers
 
+    def _plan_tilted(self, scene) -> dict:
+        """A tilted sensor: only the lens rays through the peeled layers trace it (the physical_lens
+        PSFs are a flat sensor's), against the Mitsuba thick-lens sensor tilted the same way."""
+        r = scene.render
+        if r.peel_layers is None:
+            raise UserError(f"{scene.source} [camera] sensor tilt {list(self.runtime_camera().sensor_tilt_deg)} with a "
+                            "thick lens: only the layered pass traces a tilted thick-lens sensor; add [render] "
+                            "peel_layers = 4, or remove the tilt")
+        nm = "/".join(f"{w:g}" for w in WAVELENGTHS_NM)
+        rule = {
+            "dof": self._dof(),
+            "aperture": f"round stop (semi-aperture {self.stop_radius_mm():g} mm), vignetted by the lens's openings",
+            "effects": {"chromatic": f"sellmeier ({nm} nm)"},
+            "psf_models": (),
+            "references": (Step("mitsuba_thick_lens", f"Mitsuba path trace through the thick lens and its tilted "
+                                                      f"sensor (lab.reference.thick_lens_sensor), one pass set per "
+                                                      f"channel at {nm} nm, {r.reference_spp} spp each, max depth "
+                                                      f"{r.max_depth}"),),
+            "runtime_passes": (),
+            "skipped": (Step("spreadlets, splat, filter", "the physical_lens PSFs are traced for a flat sensor; the "
+                                                          "tilted sensor runs through the layered pass's lens rays"),),
+        }
+        return with_layered_pass(rule, scene)
+
     def _dof(self) -> str:
         lens = self.runtime_camera()
         name = f"{self.lens}, " if self.lens is not None else ""
         n = lens.chief_scale_mm / (2.0 * lens.pupil_radius_mm)
+        tilt = (f", sensor tilt {lens.sensor_tilt_deg[0]:.3g}/{lens.sensor_tilt_deg[1]:.3g} deg" if lens.tilted
+                else "")
         return (f"thick ({name}{len(lens.surfaces)} surfaces, EFL {lens.focal_length_mm:.1f} mm, f/{n:.2g}, "
-                f"focus {lens.focus_distance_m:g} m, sensor {lens.sensor_width_mm:g} mm)")
+                f"focus {lens.focus_distance_m:g} m{tilt}, sensor {lens.sensor_width_mm:g} mm)")
 
     def mitsuba_sensor(self, sensor: dict) -> dict:
         """The Python sensor of :mod:`lab.reference.thick_lens_sensor` tracing this lens at the

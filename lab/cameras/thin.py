@@ -7,7 +7,8 @@
   either's circumradius is the aperture radius. Instead of ``focus_distance_m``: ``focus_point =
   [x, y]`` (focus on what that pixel sees) or ``focus_points = [[x, y], ...]`` (>= 3: the sensor
   tilts to focus their least-squares plane, Scheimpflug), resolved by :mod:`lab.focus`;
-  ``sensor_tilt_deg = [tx, ty]`` tilts the sensor by hand.
+  ``sensor_tilt_deg = [tx, ty]`` tilts the sensor by hand; ``focal_surface`` (with ``focus_distance_m``)
+  focuses each pixel on an expressive surface (:mod:`lab.focal_constraints`).
 - Runtime twin: :class:`runtime_cl.camera.thin_lens.ThinLens` (the aperture's shape does not
   change its CoC).
 - Header: the twin's JSON, the iris or the shape as ``"aperture"``, the shutter.
@@ -15,7 +16,8 @@
   Mitsuba's ``thinlens`` (a moving scene: a ``combined`` database against sub-frames, see
   :func:`lab.cameras.base.motion_plan`; a tilted sensor renders through :mod:`lab.reference.
   tilted_lens`), and with ``[render] peel_layers`` also LES10's lens rays
-  through the umbra-peeled layers (the ``layered`` pass); an iris runs MHU21's exact polygon passes (no PSF database), a shape
+  through the umbra-peeled layers (the ``layered`` pass); a focal surface runs the same passes with no
+  reference (step ``none``: nothing physical has that focus); an iris runs MHU21's exact polygon passes (no PSF database), a shape
   the spreadlet passes on a ``stylized`` database, both against the same lens through that
   aperture (:mod:`lab.reference.aperture_lens`).
 """
@@ -25,14 +27,15 @@ import math
 import typing
 from dataclasses import dataclass
 
-from runtime_cl.camera.focal_surface import read_surface
+from runtime_cl.camera.focal_surface import scheimpflug_tilt
 from runtime_cl.camera.thin_lens import ThinLens
 
 from ..config import from_table
 from ..errors import UserError
+from ..focal_constraints import check_table, unresolved
 from ..motion import scene_moves
 from ..optics.iris import Iris
-from ..plan import Step
+from ..plan import NO_REFERENCE, Step
 from .base import Camera, motion_plan, register_camera, with_layered_pass
 from .shaped_aperture import SHAPES, ShapedAperture
 
@@ -63,9 +66,10 @@ class ThinCamera(Camera):
     sensor_tilt_deg : (float, float), default (0, 0)
         Sensor tilt (Scheimpflug) about the image's y and x axes, by hand or from ``focus_points``.
     focal_surface : dict, optional
-        Expressive focus (LES10 5.2): ``{ points = [[x, y, depth_m], ...], beta = 2, dof_extent = 1 }``
-        (:func:`runtime_cl.camera.focal_surface.read_surface`); no physical reference, so for
-        ``splatlab render --camera FILE.toml`` only.
+        Expressive focus (LES10 5.2): ``{ points = [[x, y, depth_m], ...], blur = [[x, y, r_px], ...],
+        beta = 2, dof_extent = 1 }`` (:mod:`lab.focal_constraints`; ``blur`` is resolved from the depths
+        its pixels see). No physical reference: the plan's reference step is ``none`` and the report
+        shows the methods unscored.
     """
 
     runtime = ThinLens
@@ -111,13 +115,13 @@ class ThinCamera(Camera):
             raise UserError(f"focus_points = {[list(p) for p in self.focus_points]}: a focal plane needs >= 3 "
                             "points; give more, or one focus_point = [x, y]")
         if self.focal_surface is not None:
-            try:
-                read_surface(self.focal_surface, "")
-            except UserError as exc:
-                raise UserError(str(exc).strip()) from None
+            object.__setattr__(self, "focal_surface", check_table(self.focal_surface, ""))
             if self.focus_distance_m is None:
                 raise UserError("focal_surface: give focus_distance_m too (it sets the lens's image distance, so the "
                                 "field of view)")
+            if self.sensor_tilt_deg != (0.0, 0.0):
+                raise UserError(f"sensor_tilt_deg = {list(self.sensor_tilt_deg)} with a focal_surface: the surface "
+                                "sets the focus of every pixel; remove one of them")
         tilt = self.sensor_tilt_deg != (0.0, 0.0) or self.focus_points is not None
         if tilt and self.aperture is not None:
             raise UserError(f"aperture = {self.aperture!r} with a tilted sensor: the tilt-shift reference traces a "
@@ -130,6 +134,11 @@ class ThinCamera(Camera):
                             f"({self.focal_length_mm} mm); use a focus distance > "
                             f"{self.focal_length_mm / 1000.0} m")
         self.iris(), self.shaped()  # validates the aperture table
+
+    def plane_focus(self, points, normal, offset: float, width_px: int) -> tuple:
+        """(focus distance m, sensor tilt deg) that focus the plane ``normal . X = offset`` (camera
+        space, m): the lens equation (:func:`runtime_cl.camera.focal_surface.scheimpflug_tilt`)."""
+        return scheimpflug_tilt(normal, offset, self.focal_length_mm / 1000.0)
 
     def iris(self) -> Iris | None:
         """The polygonal iris of ``aperture``, ``None`` for a round or stylized aperture."""
@@ -153,6 +162,9 @@ class ThinCamera(Camera):
             n = self.focal_length_mm / (2.0 * self.aperture_radius_mm)
         if self.focus_distance_m is None:
             raise UserError("focus_point(s): the focus is not resolved yet; load the scene with "
+                            "lab.pipeline.load_scene_and_plan (lab.focus.resolve_focus)")
+        if unresolved(self.focal_surface):
+            raise UserError("focal_surface blur: the constraints are not resolved yet; load the scene with "
                             "lab.pipeline.load_scene_and_plan (lab.focus.resolve_focus)")
         pixels = [self.focus_point] if self.focus_point is not None else list(self.focus_points or ())
         return ThinLens(focal_length_mm=self.focal_length_mm, f_number=n,
@@ -187,14 +199,25 @@ class ThinCamera(Camera):
             raise UserError(f"{scene.source} [medium]: a medium with a thin lens; no PSF model combines "
                             "defocus and scattering (LSR18's Volume PSFs are a pinhole's): set [camera] "
                             "model = \"pinhole\" for fog, or remove [medium]")
-        if self.focal_surface is not None:
-            raise UserError(f"{scene.source} [camera] focal_surface: expressive focus has no physical reference to "
-                            "report against; render a labelled input with it: splatlab render IN.exr --camera "
-                            "FILE.toml (a [camera] table with the focal_surface)")
+        rule = self._plan(scene)
+        if self.focal_surface is None:
+            return rule
+        # LES10 5.2: no lens has this focus, so nothing renders a reference to score against
+        n = len(self.focal_surface["points"])
+        return dict(rule, references=(Step(NO_REFERENCE, f"expressive focus (LES10 5.2, a focal surface from {n} "
+                                                         "constraints) has no physical reference: the methods' "
+                                                         "images are shown unscored"),),
+                    skipped=tuple(rule["skipped"]) + (Step(f"scores against {rule['references'][0].name}",
+                                                           "no lens focuses on an expressive surface, so a path "
+                                                           "trace of the scene is no reference for it; its "
+                                                           "properties are tested instead (tests/lab/"
+                                                           "test_expressive_focus.py)"),))
+
+    def _plan(self, scene) -> dict:
         if scene_moves(scene):
-            if self.runtime_camera().tilted:
-                raise UserError(f"{scene.source} [camera]: a tilted sensor in a moving scene; the motion reference "
-                                "traces an untilted lens: remove the velocities, or the tilt")
+            if self.runtime_camera().tilted or self.focal_surface is not None:
+                raise UserError(f"{scene.source} [camera]: a tilted sensor or a focal_surface in a moving scene; the "
+                                "motion model traces an untilted lens: remove the velocities, or the tilt")
             if self.aperture is not None:
                 raise UserError(f"{scene.source} [camera] aperture = {self.aperture!r}: the scene moves, and the "
                                 "motion-blur model (combined) traces a round aperture; remove the aperture "
@@ -228,6 +251,10 @@ class ThinCamera(Camera):
     def _dof(self) -> str:
         lens = self.runtime_camera()
         tilt = f", sensor tilt {lens.sensor_tilt_deg[0]:.3g}/{lens.sensor_tilt_deg[1]:.3g} deg" if lens.tilted else ""
+        if lens.focal_surface is not None:
+            surface = lens.surface()
+            tilt = (f", expressive focal surface from {len(surface['points'])} constraints, DOF extent "
+                    f"{surface['dof_extent']:g}")
         return (f"thin ({lens.focal_length_mm:g} mm f/{lens.f_number:.3g}, "
                 f"focus {lens.focus_distance_m:g} m{tilt}, sensor {lens.sensor_width_mm:g} mm)")
 

@@ -21,10 +21,14 @@ for each tabulated radius r; A(r) is linear between them. The box of a radius be
 tabulated ones is the union of theirs, widened by two grid cells, in the frame turned to the
 sensor point's azimuth. :meth:`ExitPupil.sample` and :meth:`ExitPupil.trace` are written once
 for numpy and Dr.Jit (the ``ops`` of :mod:`lab.optics.thick_lens`).
+
+Tilt-shift. A tilted sensor's point (sx, sy) lies gx sx + gy sy beyond the axial sensor plane; its
+rays start there and A is tabulated over five such shifts as well (linear between them), each box
+the union over them.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import drjit as dr
 import numpy as np
@@ -60,6 +64,9 @@ class ExitPupil:
     boxes_mm : (n - 1, 3) float64
         Per interval of radii, (x0, x1, y1): the box [x0, x1] x [-y1, y1] that holds the passing
         plane points of a sensor point (r, 0) in it.
+    slopes, shifts_mm, shift_area_mm2
+        A tilted sensor's slopes (gx, gy), the shifts A is tabulated at and A per (shift, radius)
+        (None untilted; ``area_mm2`` is the row at shift 0).
     """
 
     reversed_lens: LensSystem
@@ -70,10 +77,13 @@ class ExitPupil:
     radii_mm: np.ndarray
     area_mm2: np.ndarray
     boxes_mm: np.ndarray
+    slopes: tuple = (0.0, 0.0)
+    shifts_mm: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    shift_area_mm2: np.ndarray | None = None
 
     @classmethod
     def build(cls, camera: ThickLensCamera, wavelength_nm: float, max_radius_mm: float, n_radii: int = 48,
-              grid: int = 256) -> "ExitPupil":
+              grid: int = 256, slopes=(0.0, 0.0), shift_mm: float = 0.0) -> "ExitPupil":
         """Tabulate A(r) and the boxes for a focused ``camera``.
 
         Parameters
@@ -89,6 +99,12 @@ class ExitPupil:
         grid : int, default 256
             Plane points per side of the stratified grid over a disc that holds every ray that
             can reach the rear element (about 0.79 grid^2 points inside it).
+        slopes : (float, float), default (0, 0)
+            A tilted sensor (tilt-shift): its z grows by gx per mm of sensor x and gy per mm of y
+            (:meth:`runtime_cl.camera.thick_lens.ThickLens.sensor_slopes`).
+        shift_mm : float, default 0
+            The tilted sensor's largest distance from its axial plane: A is tabulated over five
+            shifts in [-shift_mm, shift_mm] too (linear between them), and each box holds the union.
 
         Raises
         ------
@@ -102,12 +118,12 @@ class ExitPupil:
         sag = rear.sag(rear.aperture_radius_mm)
         plane_z = last + max(0.0, sag)
         gap = camera.sensor_z_mm - plane_z
-        if not gap > 2.0 * abs(sag):
+        if not gap - shift_mm > 2.0 * abs(sag):
             raise UserError(f"the sensor (z = {camera.sensor_z_mm:.4g} mm) sits {gap:.3g} mm behind a rear element "
                             f"{abs(sag):.3g} mm deep; focus farther away or use a lens with a longer back focus")
         # a ray reaching the rear cap crosses the plane within rho of the axis:
         # rho = a + slope * |sag|, slope <= (max_radius + rho) / gap
-        k = abs(sag) / gap
+        k = abs(sag) / (gap - shift_mm)
         rho = (rear.aperture_radius_mm + k * max_radius_mm) / (1.0 - k) * 1.01
         rev = lens.reversed()
         probe = cls(rev, rev.relative_indices(wavelength_nm), last, camera.sensor_z_mm, plane_z,
@@ -118,19 +134,23 @@ class ExitPupil:
         inside = qx * qx + qy * qy <= rho * rho
         qx, qy = qx[inside], qy[inside]
         radii = np.linspace(0.0, max_radius_mm, n_radii)
-        area, box = np.zeros(n_radii), np.zeros((n_radii, 3))
-        for j, r in enumerate(radii):
-            _, _, ok, cos4 = probe.trace(np.full_like(qx, r), np.zeros_like(qx), qx, qy)
-            if not ok.any():
-                raise UserError(f"no ray from the sensor {r:.3g} mm off axis gets through the lens (the image's "
-                                f"half diagonal is {max_radius_mm:.3g} mm): widen the apertures, or use a smaller "
-                                "sensor_width_mm")
-            area[j] = float(np.sum(np.where(ok, cos4, 0.0))) * cell * cell
-            box[j] = qx[ok].min(), qx[ok].max(), np.abs(qy[ok]).max()
+        shifts = np.linspace(-shift_mm, shift_mm, 5) if shift_mm > 0 else np.zeros(1)
+        area, box = np.zeros((len(shifts), n_radii)), np.zeros((n_radii, 3))
+        box[:, 0], box[:, 1] = np.inf, -np.inf
+        for i, dz in enumerate(shifts):
+            for j, r in enumerate(radii):
+                _, _, ok, cos4 = probe._trace_shifted(np.full_like(qx, r), np.zeros_like(qx), qx, qy, dz, NUMPY)
+                if not ok.any():
+                    raise UserError(f"no ray from the sensor {r:.3g} mm off axis gets through the lens (the image's "
+                                    f"half diagonal is {max_radius_mm:.3g} mm): widen the apertures, or use a smaller "
+                                    "sensor_width_mm")
+                area[i, j] = float(np.sum(np.where(ok, cos4, 0.0))) * cell * cell
+                box[j] = min(box[j, 0], qx[ok].min()), max(box[j, 1], qx[ok].max()), max(box[j, 2], np.abs(qy[ok]).max())
         margin = 2.0 * cell
         boxes = np.stack([np.minimum(box[:-1, 0], box[1:, 0]) - margin, np.maximum(box[:-1, 1], box[1:, 1]) + margin,
                           np.maximum(box[:-1, 2], box[1:, 2]) + margin], axis=1)
-        return cls(probe.reversed_lens, probe.eta, last, camera.sensor_z_mm, plane_z, radii, area, boxes)
+        return cls(probe.reversed_lens, probe.eta, last, camera.sensor_z_mm, plane_z, radii, area[len(shifts) // 2],
+                   boxes, tuple(float(g) for g in slopes), shifts, area if shift_mm > 0 else None)
 
     def sample(self, sx, sy, u1, u2, ops: Ops = NUMPY):
         """Plane points for sensor points (sx, sy) from uniform numbers u1, u2 in [0, 1).
@@ -146,7 +166,18 @@ class ExitPupil:
         t = _clip(r * (1.0 / step), len(self.radii_mm) - 1.000001, ops)
         j = _floor(t, ops)
         f = t - _float(j, ops)
-        a0, a1 = _gather(self.area_mm2, j, ops), _gather(self.area_mm2, j + 1, ops)
+        if self.shift_area_mm2 is None:
+            a0, a1 = _gather(self.area_mm2, j, ops), _gather(self.area_mm2, j + 1, ops)
+        else:   # a tilted sensor: A also linear in the point's shift along the axis
+            n, top = len(self.radii_mm), float(self.shifts_mm[-1])
+            dz = self.slopes[0] * sx + self.slopes[1] * sy
+            u = _clip((dz + top) * ((len(self.shifts_mm) - 1) / (2.0 * top)), len(self.shifts_mm) - 1.000001, ops)
+            u = ops.select(u > 0.0, u, 0.0)
+            i = _floor(u, ops)
+            g = u - _float(i, ops)
+            flat = self.shift_area_mm2.ravel()
+            a0, a1 = ((1.0 - g) * _gather(flat, i * n + jj, ops) + g * _gather(flat, (i + 1) * n + jj, ops)
+                      for jj in (j, j + 1))
         x0, x1, y1 = (_gather(self.boxes_mm[:, k], j, ops) for k in range(3))
         bx, by = x0 + u1 * (x1 - x0), y1 * (2.0 * u2 - 1.0)
         inv = 1.0 / ops.select(r > 0, r, 1.0)
@@ -163,12 +194,17 @@ class ExitPupil:
             direction (tuples of 3 arrays, lens coordinates, d_z < 0: toward the scene), whether
             it got through, and cos^4 of its angle to the axis behind the lens.
         """
+        shift = self.slopes[0] * sx + self.slopes[1] * sy if self.slopes != (0.0, 0.0) else 0.0
+        return self._trace_shifted(sx, sy, qx, qy, shift, ops)
+
+    def _trace_shifted(self, sx, sy, qx, qy, shift, ops: Ops):
+        """:meth:`trace` from sensor points ``shift`` mm beyond the axial sensor plane."""
         c = ops.const
-        dz = c(self.sensor_z_mm - self.plane_z_mm)
+        dz = c(self.sensor_z_mm - self.plane_z_mm) + shift
         vx, vy = qx - sx, qy - sy
         inv = 1.0 / ops.sqrt(vx * vx + vy * vy + dz * dz)
         cos = dz * inv
-        o = (sx, sy, sx * 0.0 + c(self.last_vertex_mm - self.sensor_z_mm))   # reversed lens coordinates
+        o = (sx, sy, sx * 0.0 + c(self.last_vertex_mm - self.sensor_z_mm) - shift)   # reversed lens coordinates
         (ox, oy, oz), (dx, dy, dz_out), ok = self.reversed_lens.trace(o, (vx * inv, vy * inv, cos), self.eta, ops)
         cos2 = cos * cos
         return (ox, oy, c(self.last_vertex_mm) - oz), (dx, dy, -dz_out), ok, cos2 * cos2

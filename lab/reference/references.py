@@ -52,15 +52,21 @@ def _the_input(scene, image) -> np.ndarray:
     return image.frame_crop(image.rgb)
 
 
-# Step name -> (scene, labelled input) -> RenderJob to run, or the (H, W, 3) radiance itself.
-REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
+def _none(scene, image) -> None:
+    """No reference: nothing physical has the plan's effect (an expressive focal surface)."""
+    return None
+
+
+# Step name -> (scene, labelled input) -> RenderJob to run, the (H, W, 3) radiance itself, or None.
+REFERENCES = {"none": _none, "mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
               "mitsuba_volpath": _mitsuba, "mitsuba_motion": _motion, "mitsuba_thick_lens": _thick_lens,
               "pinhole": _the_input}
 
 
 def reference_step(name: str, scene, image):
     """What the plan's reference step ``name`` is for ``scene`` (``image``: its labelled input): a
-    ``RenderJob`` to run, or the (H, W, 3) reference image when nothing needs rendering."""
+    ``RenderJob`` to run, the (H, W, 3) reference image when nothing needs rendering, or None
+    when there is no reference (step ``none``)."""
     if name not in REFERENCES:
         raise UserError(f"reference {name!r}: no renderer is registered for it; known references are "
                         f"{sorted(REFERENCES)}")

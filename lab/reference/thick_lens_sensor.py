@@ -8,6 +8,8 @@ refracted backward through every surface at the sensor's one wavelength
 (:class:`~lab.optics.exit_pupil.ExitPupil`, Dr.Jit). Rays that are blocked or totally reflected
 get weight 0; the others ``cos^4 * box area / A(r)``, which renormalises vignetting as the PSF
 model's normalised PSFs do (the exit-pupil module says why).
+A tilted sensor (the header's ``sensor_tilt_deg``, tilt-shift) moves each film point along the axis
+to its plane (:class:`~lab.optics.exit_pupil.ExitPupil`'s slopes), as the runtime's tracer does.
 Chromatic aberration: one render per channel wavelength (:class:`lab.reference.chromatic.
 ChromaticJob`).
 
@@ -59,7 +61,11 @@ def register() -> str:
             cam = ThickLensCamera.focused(LensSystem(data["surfaces"]), data["focus_distance_m"], (self.wavelength,),
                                           FOCUS_WAVELENGTH_NM, int(self.size[0]), width_mm, data["focus"])
             self.pupil_z = cam.pupil_z_mm
-            self.pupil = ExitPupil.build(cam, self.wavelength, 0.5 * math.hypot(*self.sensor_mm))
+            # tilt-shift: the sensor point (sx, sy) lies gx sx + gy sy beyond the axial sensor plane
+            slopes = tuple(math.tan(math.radians(t)) for t in data.get("sensor_tilt_deg", (0.0, 0.0)))
+            shift = 0.5 * (abs(slopes[0]) * self.sensor_mm[0] + abs(slopes[1]) * self.sensor_mm[1])
+            self.pupil = ExitPupil.build(cam, self.wavelength, 0.5 * math.hypot(*self.sensor_mm), slopes=slopes,
+                                         shift_mm=shift)
             self.m_needs_sample_3 = True
 
         def sample_ray(self, time, sample1, sample2, sample3, active=True):

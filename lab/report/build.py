@@ -46,17 +46,23 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
                     baseline=None, reference_b=None) -> dict:
     """Write the images of one run into ``out_dir`` and return the report.json dictionary.
 
+    ``reference`` None (a plan with no reference): the methods' images and times, SSIM and PSNR None.
+
     ``reference_b``: a second reference with an independent seed; each method then also gets its
     noise-corrected MSE (:func:`~lab.report.metrics.noise_corrected_mse`) and the PSNR of it."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    save_render(reference, out_dir / "reference.png")
+    if reference is not None:
+        save_render(reference, out_dir / "reference.png")
     save_render(image.rgb, out_dir / "input.png")
     methods, rgbs = {}, {}
     for name, (rendered, timing) in results.items():
         rgb = rendered[..., :3] if rendered.shape[2] >= 3 else np.repeat(rendered, 3, axis=2)
         rgbs[name] = rgb
         save_render(rgb, out_dir / f"{name}.png")
+        if reference is None:   # nothing to score against (an expressive focal surface): the image alone
+            methods[name] = dict(timing, ssim=None, psnr=None, image=f"{name}.png")
+            continue
         save_heatmap(error_map(rgb, reference) * ERROR_SCALE, out_dir / f"{name}_error.png", vmax=1.0)
         methods[name] = dict(timing, ssim=ssim(rgb, reference), psnr=psnr(rgb, reference),
                              image=f"{name}.png", error_image=f"{name}_error.png", error_scale=ERROR_SCALE)
@@ -65,7 +71,7 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
             methods[name].update(noise_corrected_mse=mse,
                                  noise_corrected_psnr=float(-10.0 * np.log10(mse)) if mse > 0 else None)
     plots = {}
-    if len(methods) > 1:
+    if len(methods) > 1 and reference is not None:
         points = [dict(m, method=name) for name, m in methods.items()]
         accuracy_time_plot(points, out_dir / "accuracy_vs_time.png", f"{scene.name}: accuracy vs time, per method")
         plots["accuracy vs time"] = {"image": "accuracy_vs_time.png",
@@ -87,9 +93,9 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
         "metrics": "SSIM: skimage structural_similarity, gaussian sigma 1.5, data_range 1, channel_axis 2; "
                    "PSNR data_range 1; both on the tonemap",
         "timing": dict(COLUMNS, runs="timed calls after one warm-up call; every figure is their median"),
-        "images": {"reference": "reference.png", "input (pinhole)": "input.png"},
+        "images": ({"reference": "reference.png"} if reference is not None else {}) | {"input (pinhole)": "input.png"},
         "plots": plots,
-        "insets": write_insets(reference, rgbs, out_dir) if rgbs else None,
+        "insets": write_insets(reference, rgbs, out_dir) if rgbs and reference is not None else None,
         "methods": methods,
         "timing_reference": reference_method,
         "database": {name: _database_summary(r) for name, r in databases.items()},

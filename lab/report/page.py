@@ -34,9 +34,11 @@ def _summary(report: dict) -> str:
     w, h = scene["resolution"]
     ref = report.get("reference", {})
     text = (f"{w}&times;{h} px, {esc(_camera_line(scene['camera']))} camera; effects: "
-            + esc(", ".join(f"{k} {v}" for k, v in report["plan"]["effects"].items() if v != "none"))
-            + f". Every figure is measured against the path-traced reference ({esc(', '.join(ref.get('steps', [])))}, "
-            f"{fmt(ref.get('reference_spp'))} spp) on the tonemap <code>{esc(report['tonemap'])}</code>.")
+            + esc(", ".join(f"{k} {v}" for k, v in report["plan"]["effects"].items() if v != "none")) + ". ")
+    if "none" in ref:   # no reference: the images are shown unscored
+        return f"<p class='lead'>{text}No reference: {esc(ref['none'])}.</p>"
+    text += (f"Every figure is measured against the path-traced reference ({esc(', '.join(ref.get('steps', [])))}, "
+             f"{fmt(ref.get('reference_spp'))} spp) on the tonemap <code>{esc(report['tonemap'])}</code>.")
     if methods:
         best = max(methods, key=lambda n: methods[n]["ssim"])
         fast = min(methods, key=lambda n: methods[n]["time_ms"])
@@ -167,6 +169,9 @@ def _images_section(report: dict) -> str:
     figs = [figure(src, name) for name, src in report["images"].items()]
     pairs = []
     for name, m in report["methods"].items():   # each method beside its error map
+        if m.get("ssim") is None:   # no reference: no score, no error map
+            pairs.append("<div class='pair'>" + figure(m["image"], f"{name}: {m['time_ms']:.3g} ms (unscored)") + "</div>")
+            continue
         pairs.append("<div class='pair'>" + figure(m["image"], f"{name}: SSIM {m['ssim']:.3f}, {m['time_ms']:.3g} ms")
                      + figure(m["error_image"], f"{name}: |error| x{m['error_scale']:g} (bright = wrong)") + "</div>")
     return ("<h2 id='images'>Images and error maps</h2><div class='grid'>" + "".join(figs) + "</div>"

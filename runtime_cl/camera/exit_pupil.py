@@ -10,7 +10,9 @@ two grid cells. The weight of a passing ray is cos^4 of its angle to the axis; a
 divides by the sum of its rays' weights renormalises vignetting as the Mitsuba reference sensor
 does (its A(r) cancels), so no area table is kept here.
 
-One table serves every channel: each radius's box is the union over the channels' indices.
+One table serves every channel: each radius's box is the union over the channels' indices. A
+tilted sensor (``shift_mm``: its largest distance from the axial sensor plane) makes each box the
+union over sensor points shifted along the axis by up to that much.
 """
 from __future__ import annotations
 
@@ -52,7 +54,8 @@ class PupilBoxes:
     boxes_mm: np.ndarray
 
     @classmethod
-    def build(cls, lens: TracedLens, max_radius_mm: float, n_radii: int = 32, grid: int = 160) -> "PupilBoxes":
+    def build(cls, lens: TracedLens, max_radius_mm: float, n_radii: int = 32, grid: int = 160,
+              shift_mm: float = 0.0) -> "PupilBoxes":
         """Tabulate the boxes of the forward ``lens`` (sensor at ``lens.sensor_z_mm``).
 
         Parameters
@@ -66,6 +69,9 @@ class PupilBoxes:
         grid : int, default 160
             Plane points per side of the stratified grid over a disc holding every ray that can
             reach the rear element.
+        shift_mm : float, default 0
+            A tilted sensor's largest distance from its axial plane (mm): the boxes hold the rays
+            of sensor points shifted by up to that much along the axis.
 
         Raises
         ------
@@ -77,11 +83,11 @@ class PupilBoxes:
         sag = c * a * a / (1.0 + math.sqrt(max(1.0 - c * c * a * a, 0.0)))
         plane_z = last + max(0.0, sag)
         gap = lens.sensor_z_mm - plane_z
-        if not gap > 2.0 * abs(sag):
+        if not gap - shift_mm > 2.0 * abs(sag):
             raise InputError(f"thick lens: the sensor (z = {lens.sensor_z_mm:.4g} mm) sits {gap:.3g} mm behind a rear "
                              f"element {abs(sag):.3g} mm deep; no backward ray can be aimed past it (refocus farther)")
         # a ray reaching the rear cap crosses the plane within rho of the axis
-        k = abs(sag) / gap
+        k = abs(sag) / (gap - shift_mm)
         rho = (a + k * max_radius_mm) / (1.0 - k) * 1.01
         cell = 2.0 * rho / grid
         u = (np.arange(grid) + 0.5) * cell - rho
@@ -91,10 +97,14 @@ class PupilBoxes:
         probe = cls(lens.reversed(), last - lens.sensor_z_mm, gap, 1.0, np.zeros((0, 3)))
         radii = np.linspace(0.0, max_radius_mm, n_radii)
         box = np.zeros((n_radii, 3))
+        # a tilted sensor: its points lie up to shift_mm off the axial plane; each box holds the
+        # union over the shifts (a sensor point's own shift only narrows what passes)
+        shifts = np.linspace(-shift_mm, shift_mm, 5) if shift_mm > 0 else np.zeros(1)
         for j, r in enumerate(radii):
             ok = np.zeros(len(qx), bool)
             for ch in range(len(lens.eta)):
-                ok |= probe.trace(r, 0.0, qx, qy, ch)[2]
+                for dz in shifts:
+                    ok |= probe.trace(r, 0.0, qx, qy, ch, dz)[2]
             if not ok.any():
                 raise InputError(f"thick lens: no ray from the sensor {r:.3g} mm off axis gets through (the image's "
                                  f"half diagonal is {max_radius_mm:.3g} mm); widen the apertures or shrink the sensor")
@@ -116,8 +126,9 @@ class PupilBoxes:
         cos, sin = np.where(r > 0, sx / safe, 1.0), np.where(r > 0, sy / safe, 0.0)
         return cos * bx - sin * by, sin * bx + cos * by
 
-    def trace(self, sx, sy, qx, qy, channel) -> tuple:
-        """Backward rays from (sx, sy) aimed at (qx, qy), in the forward lens's coordinates (numpy).
+    def trace(self, sx, sy, qx, qy, channel, dz=0.0) -> tuple:
+        """Backward rays from (sx, sy) aimed at (qx, qy), in the forward lens's coordinates (numpy);
+        ``dz``: the sensor point's z beyond the axial sensor plane (mm, a tilted sensor's gx sx + gy sy).
 
         Returns
         -------
@@ -127,11 +138,11 @@ class PupilBoxes:
         cos4 : (m,) float64
             cos^4 of the sensor-side ray's angle to the axis (its weight).
         """
-        sx, sy, qx, qy = np.broadcast_arrays(*(np.asarray(v, np.float64) for v in (sx, sy, qx, qy)))
-        d = np.stack([qx - sx, qy - sy, np.full_like(sx, self.plane_gap_mm)], axis=1)
+        sx, sy, qx, qy, dz = np.broadcast_arrays(*(np.asarray(v, np.float64) for v in (sx, sy, qx, qy, dz)))
+        d = np.stack([qx - sx, qy - sy, self.plane_gap_mm + dz], axis=1)
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         cos = d[:, 2].copy()
-        o = np.stack([sx, sy, np.full_like(sx, self.origin_z_mm)], axis=1)
+        o = np.stack([sx, sy, self.origin_z_mm - dz], axis=1)   # reversed lens: z' = L - z
         o, d, ok = self.lens.trace(o, d, channel, to_sensor=False)
         last = self.lens.sensor_z_mm
         return (np.stack([o[:, 0], o[:, 1], last - o[:, 2]], axis=1), np.stack([d[:, 0], d[:, 1], -d[:, 2]], axis=1),

@@ -40,13 +40,14 @@ import numpy as np
 from runtime_cl.errors import InputError
 from runtime_cl.json_values import is_number
 
-__all__ = ["MAX_TILT_DEG", "chief_directions", "check_tilt", "expressive_inverse_focus", "read_surface",
+__all__ = ["MAX_CONSTRAINTS", "MAX_TILT_DEG", "SURFACE_KEYS", "chief_directions", "check_tilt", "expressive_inverse_focus", "read_surface",
            "scheimpflug_tilt", "tilt_inverse_focus"]
 
 # A sensor tilted this far is no camera (a real tilt-shift lens tilts by about 10 degrees): the
 # focal plane then nearly contains the view direction.
 MAX_TILT_DEG = 60.0
 MAX_CONSTRAINTS = 256   # expressive constraints: a hand-made list, and the MLS is O(pixels x constraints)
+MAX_PIXEL = 1 << 16     # a constraint's pixel coordinates: the largest image side the lab renders, and more
 
 
 def chief_directions(height: int, width: int, f_px: float) -> tuple:
@@ -109,26 +110,39 @@ def scheimpflug_tilt(normal, offset: float, focal_length_m: float) -> tuple:
     return 1.0 / inv_f, tuple(tilt)
 
 
+SURFACE_KEYS = ("points", "alpha", "beta", "dof_extent")
+MAX_DEPTH_M = 1e6       # a focal depth beyond is infinity to every lens here (1/z < 1e-6 dioptre)
+MAX_ALPHA = 1e6         # weight ratios beyond leave the other constraints no say (and strain the MLS solve)
+DOF_EXTENT = (0.01, 100.0)   # 0.01: 100 x the lens's blur (past any image); 100: all but sharp
+
+
 def read_surface(data, source: str = "camera") -> dict:
     """The header's ``"focal_surface"``: ``{"points": [[x, y, depth_m], ...], "alpha": [...] (optional),
-    "beta": 2, "dof_extent": 1}`` checked; pixels are (column, row from the top)."""
-    if not isinstance(data, dict) or "points" not in data or set(data) - {"points", "alpha", "beta", "dof_extent"}:
+    "beta": 2, "dof_extent": 1}`` checked (every value finite and bounded); pixels are (column, row
+    from the top)."""
+    if not isinstance(data, dict) or "points" not in data:
         raise InputError(f"{source} focal_surface = {data!r}: give {{\"points\": [[x, y, depth_m], ...], \"beta\": 2, "
                          "\"dof_extent\": 1}} (alpha: optional weight per point)")
+    unknown = sorted(set(data) - set(SURFACE_KEYS))
+    if unknown:
+        raise InputError(f"{source} focal_surface: unknown key(s) {unknown}; known keys are {list(SURFACE_KEYS)}")
     pts = data["points"]
     if not (isinstance(pts, (list, tuple)) and 1 <= len(pts) <= MAX_CONSTRAINTS and all(
-            isinstance(p, (list, tuple)) and len(p) == 3 and all(is_number(v) for v in p) and p[2] > 0 for p in pts)):
+            isinstance(p, (list, tuple)) and len(p) == 3 and all(is_number(v) for v in p)
+            and abs(p[0]) <= MAX_PIXEL and abs(p[1]) <= MAX_PIXEL and 0 < p[2] <= MAX_DEPTH_M for p in pts)):
         raise InputError(f"{source} focal_surface points = {pts!r}: give 1 to {MAX_CONSTRAINTS} constraints "
-                         "[x_px, y_px, focal_depth_m] with a depth > 0")
+                         f"[x_px, y_px, focal_depth_m] with 0 < depth <= {MAX_DEPTH_M:g} m")
     alpha = data.get("alpha", [1.0] * len(pts))
-    if not (isinstance(alpha, (list, tuple)) and len(alpha) == len(pts) and all(is_number(a) and a > 0 for a in alpha)):
-        raise InputError(f"{source} focal_surface alpha = {alpha!r}: give one weight > 0 per point ({len(pts)})")
+    if not (isinstance(alpha, (list, tuple)) and len(alpha) == len(pts)
+            and all(is_number(a) and 0 < a <= MAX_ALPHA for a in alpha)):
+        raise InputError(f"{source} focal_surface alpha = {alpha!r}: give one weight in (0, {MAX_ALPHA:g}] per "
+                         f"point ({len(pts)})")
     beta, extent = data.get("beta", 2.0), data.get("dof_extent", 1.0)
     if not (is_number(beta) and 0.5 <= beta <= 8):
         raise InputError(f"{source} focal_surface beta = {beta!r}: use 0.5 to 8 (LES10: 2 to 4; larger is more local)")
-    if not (is_number(extent) and extent > 0):
+    if not (is_number(extent) and DOF_EXTENT[0] <= extent <= DOF_EXTENT[1]):
         raise InputError(f"{source} focal_surface dof_extent = {extent!r}: the depth of field relative to the "
-                         "lens's own must be > 0 (1: the lens's own)")
+                         f"lens's own must be {DOF_EXTENT[0]:g} to {DOF_EXTENT[1]:g} (1: the lens's own)")
     return {"points": [[float(v) for v in p] for p in pts], "alpha": [float(a) for a in alpha],
             "beta": float(beta), "dof_extent": float(extent)}
 

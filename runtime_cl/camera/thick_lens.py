@@ -15,7 +15,11 @@ also writes the paraxial figures it derives from the surfaces (at the d line):
 - ``pupil_z_mm``: the entrance pupil's centre on the axis (lens coordinates, any sign): where the
   labelled pixels' pinhole sits, so lens rays traced in the runtime map into its image;
 - ``wavelengths_nm`` and ``indices``: each channel's wavelength and the refractive index behind
-  every surface there, for exact ray tracing (:mod:`runtime_cl.camera.lens_trace`).
+  every surface there, for exact ray tracing (:mod:`runtime_cl.camera.lens_trace`);
+- ``sensor_tilt_deg`` (optional, tilt-shift): the sensor plane tilted about the axis point
+  ``sensor_z_mm``, its z growing by tan(tx) per mm of sensor x and tan(ty) per mm of sensor y
+  (lens coordinates: x, y as seen from the camera); a pixel's sensor point keeps its (x, y) and
+  lies on that plane (Scheimpflug, :mod:`lab.focus`). Only the lens-ray passes trace it.
 
 Depths are measured from the entrance pupil. The paraxial circle of confusion about the focus
 distance F is exact for any lens of thin-lens form, with the entrance pupil radius a as the
@@ -34,6 +38,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from runtime_cl.camera.common import depth_m, register_lens
+from runtime_cl.camera.focal_surface import check_tilt
 from runtime_cl.errors import InputError
 from runtime_cl.json_values import is_number
 
@@ -97,7 +102,8 @@ class ThickLens:
     pupil_z_mm: float
     wavelengths_nm: tuple
     indices: tuple
-    focus_points: tuple = ()   # the pixel the focus was taken from, [[x, y]] (what the header records)
+    focus_points: tuple = ()   # the pixels the focus was taken from, [[x, y], ...] (what the header records)
+    sensor_tilt_deg: tuple = (0.0, 0.0)   # Scheimpflug: the sensor plane's slopes (module docstring)
 
     def __post_init__(self):
         object.__setattr__(self, "surfaces", surface_rows(self.surfaces, "camera surfaces"))
@@ -121,8 +127,9 @@ class ThickLens:
         pts = self.focus_points
         if not (isinstance(pts, (list, tuple)) and all(isinstance(p, (list, tuple)) and len(p) == 2 and all(
                 type(v) is int and v >= 0 for v in p) for p in pts)):
-            raise InputError(f"camera focus_points = {pts!r}: give the focus pixel as [[x, y]] (integers >= 0)")
+            raise InputError(f"camera focus_points = {pts!r}: give the focus pixels as [[x, y], ...] (integers >= 0)")
         object.__setattr__(self, "focus_points", tuple(tuple(p) for p in pts))
+        object.__setattr__(self, "sensor_tilt_deg", check_tilt(self.sensor_tilt_deg))
         if self.focus not in FOCUS_RULES:
             raise InputError(f"camera focus = {self.focus!r}: use one of {list(FOCUS_RULES)}")
 
@@ -147,7 +154,17 @@ class ThickLens:
         return {"lens": self.lens, "surfaces": [list(row) for row in self.surfaces],
                 **{name: getattr(self, name) for name in NUMBERS}, "pupil_z_mm": self.pupil_z_mm, "focus": self.focus,
                 "wavelengths_nm": list(self.wavelengths_nm), "indices": [list(row) for row in self.indices],
-                **({"focus_points": [list(p) for p in self.focus_points]} if self.focus_points else {})}
+                **({"focus_points": [list(p) for p in self.focus_points]} if self.focus_points else {}),
+                **({"sensor_tilt_deg": list(self.sensor_tilt_deg)} if self.tilted else {})}
+
+    @property
+    def tilted(self) -> bool:
+        return self.sensor_tilt_deg != (0.0, 0.0)
+
+    def sensor_slopes(self) -> tuple:
+        """(gx, gy): the sensor's z (lens coordinates, mm) grows by gx per mm of sensor x and gy per
+        mm of sensor y (x, y as seen from the camera; the sensor sees the image inverted)."""
+        return tuple(math.tan(math.radians(t)) for t in self.sensor_tilt_deg)
 
     @classmethod
     def from_json(cls, data: dict, source: str = "camera") -> "ThickLens":
@@ -155,11 +172,11 @@ class ThickLens:
         if data.get("lens") != cls.lens:
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
         known = {"lens", "surfaces", "focus", "shutter", "wavelengths_nm", "indices", "pupil_z_mm", "focus_points",
-                 *NUMBERS}
+                 "sensor_tilt_deg", *NUMBERS}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")
-        missing = sorted(known - {"shutter", "focus_points"} - set(data))
+        missing = sorted(known - {"shutter", "focus_points", "sensor_tilt_deg"} - set(data))
         if missing:
             raise InputError(f"{source}: missing key(s) {missing} for a thick lens")
         try:

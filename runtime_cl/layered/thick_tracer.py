@@ -53,7 +53,10 @@ class ThickLayerTracer(LayerTracer):
         h, w = (int(s) for s in shape)
         self.channels = len(lens.eta)
         self.mm_px = camera.sensor_width_mm / w
-        self.pupil = PupilBoxes.build(lens, 0.5 * self.mm_px * math.hypot(w, h))
+        self.slopes = camera.sensor_slopes() if getattr(camera, "tilted", False) else (0.0, 0.0)
+        half_w, half_h = 0.5 * self.mm_px * w, 0.5 * self.mm_px * h
+        shift = abs(self.slopes[0]) * half_w + abs(self.slopes[1]) * half_h   # the tilted sensor's reach
+        self.pupil = PupilBoxes.build(lens, math.hypot(half_w, half_h), shift_mm=shift)
         self.f_px = camera.focal_px(w)
         self.pupil_z = float(camera.pupil_z_mm)
         self.coc_scale = float(camera.coc_scale_px(w))
@@ -71,7 +74,8 @@ class ThickLayerTracer(LayerTracer):
             f"-DNCH={self.channels}", f"-DMM_PX={self.mm_px!r}f", f"-DF_PX={self.f_px!r}f",
             f"-DORIGIN_Z={pupil.origin_z_mm!r}f", f"-DLAST_Z={pupil.lens.sensor_z_mm!r}f",
             f"-DPUPIL_Z={self.pupil_z!r}f", f"-DPLANE_GAP={pupil.plane_gap_mm!r}f", f"-DNBOX={len(pupil.boxes_mm)}",
-            f"-DINV_STEP={1.0 / pupil.radius_step_mm!r}f"]
+            f"-DINV_STEP={1.0 / pupil.radius_step_mm!r}f", f"-DTILT_GX={self.slopes[0]!r}f",
+            f"-DTILT_GY={self.slopes[1]!r}f"]
 
     def _lens_samples(self) -> np.ndarray:
         """2 ``rays`` Halton points in the unit square: where in its exit-pupil box a ray aims."""

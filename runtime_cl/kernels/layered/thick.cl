@@ -16,7 +16,8 @@
 // Constants (-D) besides trace.cl's: NCH (channels = LENS_CHANNELS), MM_PX (sensor mm per pixel),
 // F_PX (the pinhole's focal length in pixels), ORIGIN_Z (the sensor in reversed-lens z), LAST_Z
 // (the forward lens's last vertex), PUPIL_Z (the entrance pupil), PLANE_GAP, NBOX, INV_STEP (the
-// exit-pupil table).
+// exit-pupil table), TILT_GX, TILT_GY (a tilted sensor's slopes: its z grows by them per mm of sensor
+// x and y; 0 untilted).
 
 // One backward ray of sensor point s (mm) through the box sample u in [0, 1)^2 in channel ch, as
 // (a, b) with its weight cos^4; false: blocked or totally reflected.
@@ -26,9 +27,10 @@ static bool thick_ray(float2 s, float2 u, int ch, global const float4 *boxes, fl
     float4 box = boxes[min((int)(r * INV_STEP), NBOX - 1)];
     float bx = box.x + u.x * (box.y - box.x), by = box.z * (2.0f * u.y - 1.0f);
     float cs = r > 0.0f ? s.x / r : 1.0f, sn = r > 0.0f ? s.y / r : 0.0f;
-    float3 dir = normalize((float3)(cs * bx - sn * by - s.x, sn * bx + cs * by - s.y, PLANE_GAP));
+    float dz = TILT_GX * s.x + TILT_GY * s.y;   // a tilted sensor: the point's z beyond the axial plane
+    float3 dir = normalize((float3)(cs * bx - sn * by - s.x, sn * bx + cs * by - s.y, PLANE_GAP + dz));
     float c2 = dir.z * dir.z;
-    float3 o = (float3)(s.x, s.y, ORIGIN_Z);
+    float3 o = (float3)(s.x, s.y, ORIGIN_Z - dz);
     if (!trace_lens(&o, &dir, ch, 0) || !(dir.z > 0.0f))
         return false;
     float zo = PUPIL_Z - (LAST_Z - o.z);     // forward z = LAST_Z - z'; depth from the pupil

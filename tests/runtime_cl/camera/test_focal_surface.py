@@ -150,11 +150,16 @@ def test_expressive_surface_interpolates_its_constraints():
 
 @pytest.mark.parametrize("surface, needle", [
     ({"points": []}, "give 1 to 256 constraints"),
-    ({"points": [[1, 2, -3.0]]}, "depth > 0"),
+    ({"points": [[1, 2, -3.0]]}, r"0 < depth <= 1e\+06 m"),
+    ({"points": [[1, 2, 3e7]]}, r"30000000.0\]\]: give 1 to 256 constraints .* 0 < depth <= 1e\+06 m"),
+    ({"points": [[1e9, 2, 3.0]]}, r"1000000000.0, 2, 3.0\]\]: give 1 to 256"),
     ({"points": [[1, 2, 3.0]], "beta": 20}, "beta = 20"),
-    ({"points": [[1, 2, 3.0]], "dof_extent": 0}, "dof_extent = 0"),
-    ({"points": [[1, 2, 3.0]], "alpha": [1, 2]}, "one weight > 0 per point"),
+    ({"points": [[1, 2, 3.0]], "dof_extent": 0}, "dof_extent = 0: .* must be 0.01 to 100"),
+    ({"points": [[1, 2, 3.0]], "dof_extent": 1e3}, "dof_extent = 1000.0"),
+    ({"points": [[1, 2, 3.0]], "alpha": [1, 2]}, r"one weight in \(0, 1e\+06\] per point"),
+    ({"points": [[1, 2, 3.0]], "alpha": [1e9]}, r"alpha = \[1000000000.0\]"),
     ({"pts": [[1, 2, 3.0]]}, "focal_surface = "),
+    ({"points": [[1, 2, 3.0]], "sharpness": 2}, r"focal_surface: unknown key\(s\) \['sharpness'\]; known keys are"),
 ])
 def test_bad_focal_surface(surface, needle):
     with pytest.raises(InputError, match=needle):

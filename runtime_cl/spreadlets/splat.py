@@ -60,6 +60,14 @@ class SplatOutput:
     tile: tuple
 
 
+def half_turns(angle: np.ndarray) -> bool:
+    """Whether every angle (float32 radians) is 0 or +-pi: turns that ``rotation_cs`` in
+    ``kernels/spreadlets/rotate.cl`` makes exact (cos, sin) = (+-1, 0), which keep every turned
+    offset inside the stored PSF's square."""
+    a = np.abs(angle)
+    return bool(np.all((a == 0.0) | (a == np.float32(np.pi))))
+
+
 def canvas_shape(height: int, width: int, pad: int) -> tuple:
     """(Hc, Wc): the padded canvas, enlarged to FFT-friendly sizes for the Poisson solve."""
     return fft_friendly(height + 2 * pad), fft_friendly(width + 2 * pad)
@@ -101,10 +109,16 @@ class TileSplatter:
         With ``rotate``: how a turned spreadlet lands on the pixel grid (default ``"bilinear"``:
         shared among four pixels; ``"nearest"``: the nearest one, LSR18's cheaper way, with
         errors of 10-50 % of the PSF, see ``splat_spreadlets_rotated`` in ``kernels/spreadlets/splat.cl``).
+    half_turns : bool
+        With ``rotate``: the caller promises every angle is 0 or +-pi (float32), as the
+        ``coc_sign`` symmetry alone gives (:func:`half_turns`). A half turn maps the stored
+        square onto itself, so the canvas keeps :attr:`SpreadletDatabase.pad` instead of
+        growing to ``rotated_pad`` (the turned square's sqrt 2): on the demo 1208^2 instead of
+        1296^2 canvas pixels to merge, download and integrate, and 128 px tiles instead of 256.
     """
 
     def __init__(self, ddb: DeviceDatabase, colour_channels: int, dense_all: bool, run_max: int = RUN_MAX,
-                 rotate: bool = False, spreadlet_rotation: str = "bilinear"):
+                 rotate: bool = False, spreadlet_rotation: str = "bilinear", half_turns: bool = False):
         import pyopencl as cl
 
         if colour_channels not in (1, 3, 4):
@@ -122,7 +136,8 @@ class TileSplatter:
         has_fast = ddb.has_fast and not self.dense_all
         self.groups = 2 if has_fast else 1
         self.rotate = bool(rotate)
-        self.pad = ddb.db.rotated_pad if self.rotate else ddb.db.pad
+        self.half_turns = self.rotate and bool(half_turns)
+        self.pad = ddb.db.rotated_pad if self.rotate and not self.half_turns else ddb.db.pad
         options = ddb.base_options + [f"-DPAD={self.pad}", f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
                                       f"-DDENSE_ALL={int(self.dense_all)}", f"-DHAS_FAST={int(has_fast)}",
                                       f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}",

@@ -147,7 +147,7 @@ class TileSplatter:
         files = ("psf/psf_space.cl", "prelude/pixels.cl") + rotate + ("spreadlets/splat.cl",)
         program, self.build = self.device.program(files, options)
         self.splat_kernel = cl.Kernel(program, "splat_tiles")
-        self.splat_kernel.set_scalar_arg_dtypes([None] * 19 + [np.int32] * 5)
+        self.splat_kernel.set_scalar_arg_dtypes([None] * 20 + [np.int32] * 5)
         self.merge_kernel = cl.Kernel(program, "merge_tiles")
         self.merge_kernel.set_scalar_arg_dtypes([None, None] + [np.int32] * 6)
         self._scratch: dict = {}
@@ -161,7 +161,8 @@ class TileSplatter:
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         colour = cl.Buffer(ctx, flags, hostbuf=np.ones(self.colour_channels, np.float32))
         coords = cl.Buffer(ctx, flags, hostbuf=lo.reshape(ns))
-        angle = cl.Buffer(ctx, flags, hostbuf=np.full(1, 0.5, np.float32)) if self.rotate else None
+        turn = np.float32(np.pi if self.half_turns else 0.5)   # a turn this splatter's padding holds
+        angle = cl.Buffer(ctx, flags, hostbuf=np.full(1, turn, np.float32)) if self.rotate else None
         self.run(colour, coords, 1, 1, angle_buf=angle)
 
     def _buffer(self, name: str, nbytes: int):
@@ -230,12 +231,15 @@ class TileSplatter:
         ntiles = tiles_x * tiles_y
         tiles_buf = self._buffer("tiles", nbytes)
         counts_buf = self._buffer("counts", ntiles * 16)
+        # each work item's turned dense PSF: values and row headers (splat.cl splat_dense_rotated)
+        scratch = ntiles * (2 * pad + 1) * (2 * pad + 2) * 16 if self.rotate and not self.half_turns else 16
+        scratch_buf = self._buffer("turned", scratch)
         canvas_buf = self._buffer("canvas", self.groups * hc * wc * oc * 4)
         b, q = self.ddb.buffers, self.device.queue
         ev_splat = self.splat_kernel(
             q, (ntiles,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"], b["C"], b["P"],
             b["V"], b["fast"], b["dense_r"], b["dense_off"], b["dense_v"], b["span_off"], b["span"], b["dense_n"],
-            b["dense_sum"], b["dense_box"], tiles_buf, counts_buf,
+            b["dense_sum"], b["dense_box"], tiles_buf, counts_buf, scratch_buf,
             height, width, tw, th, tiles_x)
         ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
                                      wait_for=[ev_splat])

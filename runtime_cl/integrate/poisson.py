@@ -71,35 +71,19 @@ def poisson_integrate(laplacian: np.ndarray, precision: str = "float64") -> np.n
     if precision not in PRECISIONS:
         raise ValueError(f"poisson_integrate: precision = {precision!r}, must be one of {list(PRECISIONS)}")
     dtype = PRECISIONS[precision]
-    lap = np.asarray(laplacian)
+    lap = np.asarray(laplacian, dtype=dtype)
     h, w = lap.shape[:2]
     if h < 3 or w < 3:
         raise ValueError(f"poisson_integrate: canvas {h}x{w} is too small, need at least 3x3")
-    if lap.ndim == 2:
-        return _solve(lap.astype(dtype)[None], dtype)[0]
-    # channels first: each channel's 2-D FFT then runs over contiguous rows, 1.15-1.3x faster on
-    # (H, W, 3) canvases than strided over the last axis, and bitwise the same (the same 1-D
-    # transforms of the same numbers)
-    planes = np.empty((lap.shape[2], h, w), dtype)
-    for c in range(lap.shape[2]):
-        planes[c] = lap[..., c]
-    f = _solve(planes, dtype)
-    out = np.empty(lap.shape, np.float32)
-    for c in range(lap.shape[2]):
-        out[..., c] = f[c]
-    return out
-
-
-def _solve(planes: np.ndarray, dtype) -> np.ndarray:
-    """The solve of :func:`poisson_integrate` on (C, H, W) planes of ``dtype``, as float32."""
-    h, w = planes.shape[1:]
     lam = _eigenvalues(h, w) if dtype is np.float64 else _eigenvalues(h, w, dtype)
-    spec = _fft.rfft2(planes, axes=(1, 2), **_WORKERS)
+    if lap.ndim == 3:
+        lam = lam[..., None]
+    spec = _fft.rfft2(lap, axes=(0, 1), **_WORKERS)
     spec /= lam
-    spec[:, 0, 0] = 0.0
-    f = _fft.irfft2(spec, s=(h, w), axes=(1, 2), **_WORKERS)
-    border = np.concatenate([f[:, 0], f[:, -1], f[:, 1:-1, 0], f[:, 1:-1, -1]], axis=1)
-    f -= border.mean(axis=1)[:, None, None]
+    spec[0, 0] = 0.0
+    f = _fft.irfft2(spec, s=(h, w), axes=(0, 1), **_WORKERS)
+    border = np.concatenate([f[0], f[-1], f[1:-1, 0], f[1:-1, -1]], axis=0)
+    f -= border.mean(axis=0)
     return f.astype(np.float32, copy=False)
 
 

@@ -3,7 +3,7 @@
 ``spreadlets`` (LSR18 section 6): each pixel splats its cell's spreadlets times its colour into
 a padded Laplacian canvas (fast-tracked cells splat their dense PSF into a second canvas); the
 Laplacian canvas is integrated by the renderer's integrator (:mod:`runtime_cl.integrate`: by
-default ``exact``, ``integrate.poisson_integrate``), the dense canvas added and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
+default ``fft32``, :func:`~runtime_cl.integrate.poisson.poisson_integrate` in float32), the dense canvas added and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
 pixel gathers with its own PSF. All three use the same PSFs, so they differ only by method.
 
 Symmetries (LSR18 section 6): a database traced in one reference orientation is drawn with each
@@ -48,8 +48,8 @@ class Renderer:
         ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`).
     integrator : str
         How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
-        (:func:`runtime_cl.integrate.integrator_names`; default ``"exact"``, the float64 FFT;
-        ``"fft32"``, ``"pyramid"``).
+        (:func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``, the float32 FFT;
+        ``"exact"``, the float64 one; ``"pyramid"``).
     crop_integration : bool
         Integrate only the rectangle the splats reach when it is much smaller than the canvas
         (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.

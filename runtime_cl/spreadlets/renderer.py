@@ -3,7 +3,7 @@
 ``spreadlets`` (LSR18 section 6): each pixel splats its cell's spreadlets times its colour into
 a padded Laplacian canvas (fast-tracked cells splat their dense PSF into a second canvas); the
 Laplacian canvas is integrated by the renderer's integrator (:mod:`runtime_cl.integrate`: by
-default ``exact``, ``integrate.poisson_integrate``), the dense canvas added and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
+default ``fft32``, :func:`~runtime_cl.integrate.poisson.poisson_integrate` in float32), the dense canvas added and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
 pixel gathers with its own PSF. All three use the same PSFs, so they differ only by method.
 
 Symmetries (LSR18 section 6): a database traced in one reference orientation is drawn with each
@@ -24,7 +24,7 @@ from runtime_cl.spreadlets.gather import GatherFilter
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
-from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter
+from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
 
 
 
@@ -48,8 +48,8 @@ class Renderer:
         ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`).
     integrator : str
         How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
-        (:func:`runtime_cl.integrate.integrator_names`; default ``"exact"``, the float64 FFT;
-        ``"fft32"``, ``"pyramid"``).
+        (:func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``, the float32 FFT;
+        ``"exact"``, the float64 one; ``"pyramid"``).
     crop_integration : bool
         Integrate only the rectangle the splats reach when it is much smaller than the canvas
         (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.
@@ -72,10 +72,10 @@ class Renderer:
         self.crop_integration = bool(crop_integration)
         self._wrappers: dict = {}
 
-    def _wrapper(self, method: str, channels: int, rotate: bool):
-        key = (method, channels, rotate)
+    def _wrapper(self, method: str, channels: int, rotate: bool, half: bool = False):
+        key = (method, channels, rotate, half)
         if key not in self._wrappers:
-            self._wrappers[key] = METHODS[method].wrapper(self, channels, rotate)
+            self._wrappers[key] = METHODS[method].wrapper(self, channels, rotate, half)
         return self._wrappers[key]
 
     @property
@@ -154,9 +154,11 @@ class Renderer:
         if angle is not None:
             angle = self._angle(angle, (h, w))
         rotate = angle is not None and not self.rotation_invariant
+        # only 0 and pi (the coc_sign symmetry): the turned PSFs keep their square, and the canvas its pad
+        half = rotate and METHODS[method].splats and half_turns(angle)
 
         builds_before = len(self.device.builds)
-        wrapper = self._wrapper(method, ch, rotate)
+        wrapper = self._wrapper(method, ch, rotate, half)
         compile_ms = sum(b.ms for b in self.device.builds[builds_before:])
 
         ctx, q = self.device.context, self.device.queue
@@ -183,12 +185,13 @@ class _Spreadlets:
     integrated exactly, the dense canvas added."""
 
     splats_spreadlets = True   # spreadlet_rotation and run_max matter
+    splats = True              # a TileSplatter: its canvas padding follows the angles
     dense_all = False
 
     @classmethod
-    def wrapper(cls, r: Renderer, channels: int, rotate: bool):
+    def wrapper(cls, r: Renderer, channels: int, rotate: bool, half: bool = False):
         return TileSplatter(r.ddb, channels, dense_all=cls.dense_all, run_max=r.run_max, rotate=rotate,
-                            spreadlet_rotation=r.spreadlet_rotation)
+                            spreadlet_rotation=r.spreadlet_rotation, half_turns=half)
 
     @classmethod
     def run(cls, r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):
@@ -231,9 +234,10 @@ class _Filter:
     """LSR18's Filter baseline: every output pixel gathers with its own PSF."""
 
     splats_spreadlets = False
+    splats = False
 
     @staticmethod
-    def wrapper(r: Renderer, channels: int, rotate: bool):
+    def wrapper(r: Renderer, channels: int, rotate: bool, half: bool = False):
         return GatherFilter(r.ddb, channels, rotate=rotate)
 
     @staticmethod

@@ -60,6 +60,14 @@ class SplatOutput:
     tile: tuple
 
 
+def half_turns(angle: np.ndarray) -> bool:
+    """Whether every angle (float32 radians) is 0 or +-pi: turns that ``rotation_cs`` in
+    ``kernels/spreadlets/rotate.cl`` makes exact (cos, sin) = (+-1, 0), which keep every turned
+    offset inside the stored PSF's square."""
+    a = np.abs(angle)
+    return bool(np.all((a == 0.0) | (a == np.float32(np.pi))))
+
+
 def canvas_shape(height: int, width: int, pad: int) -> tuple:
     """(Hc, Wc): the padded canvas, enlarged to FFT-friendly sizes for the Poisson solve."""
     return fft_friendly(height + 2 * pad), fft_friendly(width + 2 * pad)
@@ -101,10 +109,16 @@ class TileSplatter:
         With ``rotate``: how a turned spreadlet lands on the pixel grid (default ``"bilinear"``:
         shared among four pixels; ``"nearest"``: the nearest one, LSR18's cheaper way, with
         errors of 10-50 % of the PSF, see ``splat_spreadlets_rotated`` in ``kernels/spreadlets/splat.cl``).
+    half_turns : bool
+        With ``rotate``: the caller promises every angle is 0 or +-pi (float32), as the
+        ``coc_sign`` symmetry alone gives (:func:`half_turns`). A half turn maps the stored
+        square onto itself, so the canvas keeps :attr:`SpreadletDatabase.pad` instead of
+        growing to ``rotated_pad`` (the turned square's sqrt 2): on the demo 1208^2 instead of
+        1296^2 canvas pixels to merge, download and integrate, and 128 px tiles instead of 256.
     """
 
     def __init__(self, ddb: DeviceDatabase, colour_channels: int, dense_all: bool, run_max: int = RUN_MAX,
-                 rotate: bool = False, spreadlet_rotation: str = "bilinear"):
+                 rotate: bool = False, spreadlet_rotation: str = "bilinear", half_turns: bool = False):
         import pyopencl as cl
 
         if colour_channels not in (1, 3, 4):
@@ -122,7 +136,8 @@ class TileSplatter:
         has_fast = ddb.has_fast and not self.dense_all
         self.groups = 2 if has_fast else 1
         self.rotate = bool(rotate)
-        self.pad = ddb.db.rotated_pad if self.rotate else ddb.db.pad
+        self.half_turns = self.rotate and bool(half_turns)
+        self.pad = ddb.db.rotated_pad if self.rotate and not self.half_turns else ddb.db.pad
         options = ddb.base_options + [f"-DPAD={self.pad}", f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
                                       f"-DDENSE_ALL={int(self.dense_all)}", f"-DHAS_FAST={int(has_fast)}",
                                       f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}",
@@ -132,7 +147,7 @@ class TileSplatter:
         files = ("psf/psf_space.cl", "prelude/pixels.cl") + rotate + ("spreadlets/splat.cl",)
         program, self.build = self.device.program(files, options)
         self.splat_kernel = cl.Kernel(program, "splat_tiles")
-        self.splat_kernel.set_scalar_arg_dtypes([None] * 19 + [np.int32] * 5)
+        self.splat_kernel.set_scalar_arg_dtypes([None] * 20 + [np.int32] * 5)
         self.merge_kernel = cl.Kernel(program, "merge_tiles")
         self.merge_kernel.set_scalar_arg_dtypes([None, None] + [np.int32] * 6)
         self._scratch: dict = {}
@@ -146,7 +161,8 @@ class TileSplatter:
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         colour = cl.Buffer(ctx, flags, hostbuf=np.ones(self.colour_channels, np.float32))
         coords = cl.Buffer(ctx, flags, hostbuf=lo.reshape(ns))
-        angle = cl.Buffer(ctx, flags, hostbuf=np.full(1, 0.5, np.float32)) if self.rotate else None
+        turn = np.float32(np.pi if self.half_turns else 0.5)   # a turn this splatter's padding holds
+        angle = cl.Buffer(ctx, flags, hostbuf=np.full(1, turn, np.float32)) if self.rotate else None
         self.run(colour, coords, 1, 1, angle_buf=angle)
 
     def _buffer(self, name: str, nbytes: int):
@@ -215,12 +231,15 @@ class TileSplatter:
         ntiles = tiles_x * tiles_y
         tiles_buf = self._buffer("tiles", nbytes)
         counts_buf = self._buffer("counts", ntiles * 16)
+        # each work item's turned dense PSF: values and row headers (splat.cl splat_dense_rotated)
+        scratch = ntiles * (2 * pad + 1) * (2 * pad + 2) * 16 if self.rotate and not self.half_turns else 16
+        scratch_buf = self._buffer("turned", scratch)
         canvas_buf = self._buffer("canvas", self.groups * hc * wc * oc * 4)
         b, q = self.ddb.buffers, self.device.queue
         ev_splat = self.splat_kernel(
             q, (ntiles,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"], b["C"], b["P"],
             b["V"], b["fast"], b["dense_r"], b["dense_off"], b["dense_v"], b["span_off"], b["span"], b["dense_n"],
-            b["dense_sum"], b["dense_box"], tiles_buf, counts_buf,
+            b["dense_sum"], b["dense_box"], tiles_buf, counts_buf, scratch_buf,
             height, width, tw, th, tiles_x)
         ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
                                      wait_for=[ev_splat])

@@ -51,7 +51,7 @@ def test_render_with_each_integrator(labelled, tmp_path, capsys):
     default = tmp_path / "default.exr"
     assert main(["render", str(labelled / "input.exr"), "--db", str(labelled / "discs.spdb"),
                  "--out", str(default)]) == 0
-    np.testing.assert_array_equal(read_rgb(default), images["exact"])
+    np.testing.assert_array_equal(read_rgb(default), images["fft32"])
     scale = np.abs(images["exact"]).max()
     assert np.abs(images["fft32"] - images["exact"]).max() <= 1e-4 * scale
     assert np.abs(images["pyramid"] - images["exact"]).max() <= 0.03 * scale

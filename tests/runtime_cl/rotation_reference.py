@@ -78,11 +78,12 @@ def turned_filter_image(db, colour, coords, angle) -> np.ndarray:
     return out
 
 
-def turned_spreadlet_canvas(db, colour, coords, angle, shape, bilinear=True) -> np.ndarray:
-    """The Laplacian canvas (rotated padding) of the non-fast-tracked pixels, spreadlets turned."""
+def turned_spreadlet_canvas(db, colour, coords, angle, shape, bilinear=True, pad=None) -> np.ndarray:
+    """The Laplacian canvas (``pad``, default the rotated padding) of the non-fast-tracked pixels,
+    spreadlets turned."""
     col, oc = _broadcast(db, colour)
     h, w = colour.shape[:2]
-    pad = db.rotated_pad
+    pad = db.rotated_pad if pad is None else pad
     lap = np.zeros(shape + (oc,))
     cell = cells(db, coords)
     for y in range(h):

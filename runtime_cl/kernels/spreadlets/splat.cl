@@ -141,27 +141,54 @@ inline void splat_spreadlets_rotated(__global pix_t *lap, const int buf_w, __glo
 
 // The dense PSF of radius r turned by cs (spreadlets/rotate.cl: inverse-mapped, scaled to keep its energy)
 // times the colours of a run of n pixels; dst: the tile position of the run's first pixel.
+// Other than quarter turns, the first walk over the support keeps each turned value in the work
+// item's scratch (in walk order; a NaN pattern where R^-1 d falls outside the crop), and the
+// second reads them back instead of sampling the PSF again: the same values added in the same
+// order (bitwise the same image), each PSF sampled once. Each row's columns are kept too: the
+// second walk recomputes no test, which the compiler might contract differently in two places.
+#define NO_TAP 0x7fc0dead  // a quiet NaN: finite PSF values never have it
 inline void splat_dense_rotated(__global pix_t *dst, const int buf_w, const pix_t *run_col, const int n,
                                 const int r, __global const float *dv, const float4 stored, const float4 box,
-                                const float2 cs) {
+                                const float2 cs, __global float4 *scratch) {
     const int reach = turned_reach(r, cs);
-    float4 scale = (float4)1.0f, v;
+    float4 v;
     int lo, hi;
-    if (!is_quarter_turn(cs)) {
-        float4 turned = (float4)0.0f;
+    if (is_quarter_turn(cs)) {
         for (int dy = -reach; dy <= reach; ++dy) {
+            __global pix_t *row = dst + (long)dy * buf_w;
             turned_cols(cs, box, reach, dy, &lo, &hi);
-            for (int dx = lo; dx <= hi; ++dx)
-                if (turned_value(dv, r, cs, dx, dy, &v)) turned += v;
+            for (int dx = lo; dx <= hi; ++dx) {
+                if (!turned_value(dv, r, cs, dx, dy, &v)) continue;
+                const pix_t w = TO_PIX(v);
+                for (int k = 0; k < n; ++k) row[dx + k] += w * run_col[k];
+            }
         }
-        scale = energy_scale(stored, turned);
+        return;
     }
+    float4 turned = (float4)0.0f;
+    int m = 0;
+    for (int dy = -reach; dy <= reach; ++dy) {
+        turned_cols(cs, box, reach, dy, &lo, &hi);
+        scratch[m++] = (float4)(as_float(lo), as_float(hi), 0.0f, 0.0f);   // the row's columns
+        for (int dx = lo; dx <= hi; ++dx, ++m) {
+            if (turned_value(dv, r, cs, dx, dy, &v)) {
+                turned += v;
+                scratch[m] = v;
+            } else {
+                scratch[m] = (float4)(as_float(NO_TAP));
+            }
+        }
+    }
+    const float4 scale = energy_scale(stored, turned);
+    m = 0;
     for (int dy = -reach; dy <= reach; ++dy) {
         __global pix_t *row = dst + (long)dy * buf_w;
-        turned_cols(cs, box, reach, dy, &lo, &hi);
-        for (int dx = lo; dx <= hi; ++dx) {
-            if (!turned_value(dv, r, cs, dx, dy, &v)) continue;
-            const pix_t w = TO_PIX(v * scale);
+        const float4 cols = scratch[m++];
+        hi = as_int(cols.y);
+        for (int dx = as_int(cols.x); dx <= hi; ++dx) {
+            const float4 t = scratch[m++];
+            if (as_uint(t.x) == NO_TAP) continue;
+            const pix_t w = TO_PIX(t * scale);
             for (int k = 0; k < n; ++k) row[dx + k] += w * run_col[k];
         }
     }
@@ -187,6 +214,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                           __global const int4 *dense_box,    // (n,) non-zero box (read if ROTATE)
                           __global pix_t *tiles,             // (ntiles, GROUPS, buf_h, buf_w)
                           __global long *counts,             // (ntiles, 2): spreadlets, dense px
+                          __global float4 *scratch,          // (ntiles, (2 PAD + 1)(2 PAD + 2)) (if ROTATE)
                           const int H, const int W, const int tile_w, const int tile_h,
                           const int tiles_x) {
     const int t = get_global_id(0);
@@ -195,6 +223,9 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
     const int buf_w = tile_w + 2 * PAD;
     const long group_stride = (long)(tile_h + 2 * PAD) * buf_w;
     __global pix_t *tile = tiles + (long)t * GROUPS * group_stride;
+#if ROTATE
+    __global float4 *turned_scratch = scratch + (long)t * (2 * PAD + 1) * (2 * PAD + 2);
+#endif
     for (long i = 0; i < GROUPS * group_stride; ++i) tile[i] = (pix_t)0.0f;
 
     long n_spreadlets = 0, n_dense = 0;
@@ -244,7 +275,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                 if (turned)
                     splat_dense_rotated(tile + DENSE_GROUP * group_stride + centre, buf_w, run_col, n, r,
                                         dense_v + dense_off[cell] * DC, stored_sum(dense_sum, cell),
-                                        support_box(dense_box, cell), cs);
+                                        support_box(dense_box, cell), cs, turned_scratch);
                 else
 #endif
                 splat_dense(tile + DENSE_GROUP * group_stride + centre - ((long)r * buf_w + r),

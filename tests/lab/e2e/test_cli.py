@@ -167,3 +167,28 @@ def test_help_explains_where_passes_run(command, capsys):
         build_parser().parse_args([command, "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "--workers N" in text and "--scheduler tcp://HOST:PORT" in text and "Dask" in text
+
+
+def test_bench_runtime_without_reference(tiny_report, e2e_cache, tmp_path, monkeypatch, capsys):
+    """`bench runtime --no-build --passes ...`: the plan's passes named, timed against the first,
+    with no reference rendered (the warm cache has the input and database; a reference render
+    would add a reference.exr); an unknown pass exits 2 naming the plan's."""
+    import json
+
+    from lab.bench import output
+
+    monkeypatch.setenv("SPLATLAB_CACHE", str(e2e_cache))
+    monkeypatch.setattr(output, "BENCH_DIR", tmp_path / "bench")
+    (ref,) = sorted(e2e_cache.glob("renders/*/reference.exr"))
+    ref.rename(ref.with_suffix(".kept"))   # a bench that wanted the reference would render it again
+    try:
+        code, stdout, _ = run(["bench", "runtime", "--scene", TINY, "--repeats", 1, "--no-build",
+                               "--passes", "spreadlets,splat"], capsys)
+        assert code == 0 and not ref.exists()
+    finally:
+        ref.with_suffix(".kept").rename(ref)
+    data = json.loads((tmp_path / "bench" / "runtime-latest.json").read_text())
+    assert list(data["methods"]) == ["spreadlets", "splat"]
+    assert data["methods"]["splat"]["ssim"] is None and data["ratios"]["splat_time_over_spreadlets"] > 0
+    code, _, err = run(["bench", "runtime", "--scene", TINY, "--no-build", "--passes", "spreadlets,nope"], capsys)
+    assert code == 2 and "['nope'] not in the plan" in err and "'filter'" in err

@@ -237,3 +237,38 @@ def test_bad_angles_are_input_errors(capsule):
         capsule.render(colour, coords, angle=bad)
     with pytest.raises(InputError, match=r"spreadlet_rotation = 'cubic': must be one of \['bilinear', 'nearest'\]"):
         Renderer(capsule.db, spreadlet_rotation="cubic")
+
+
+@pytest.mark.parametrize("method", ["spreadlets", "splat"])
+def test_half_turns_keep_the_unturned_padding(method):
+    """Angles of only 0 and +-pi (the coc_sign symmetry) keep every turned PSF inside its stored
+    square, so the splatter keeps the database's pad instead of rotated_pad; the image is the
+    one every pixel's turned PSF gives (numpy, float64), and the turned spreadlets' canvas is
+    the numpy one at the smaller pad."""
+    import pyopencl as cl
+
+    from runtime_cl.spreadlets.splat import half_turns
+
+    rng = np.random.default_rng(60)
+    db = laplacian_database(rng, r_max=6, channels=3, fast=0.4)
+    assert db.rotated_pad > db.pad   # else the test shows nothing
+    h, w = 19, 23
+    colour = rng.random((h, w, 3)).astype(np.float32)
+    colour[rng.random((h, w)) < 0.2] = 0.0
+    coords = (rng.random((h, w, 1)) * 6).astype(np.float32)
+    angle = rng.choice(np.float32([0.0, np.pi, -np.pi]), (h, w))
+    assert half_turns(angle) and not half_turns(angle + np.float32(1e-3))
+    renderer = Renderer(db)
+    image, _ = renderer.render(colour, coords, method, angle=angle)
+    wrapper = renderer._wrappers[(method, 3, True, True)]   # the half-turn splatter was used
+    assert wrapper.pad == db.pad
+    want = turned_splat_image(db, colour, coords, angle)
+    # the spreadlets are these PSFs' exact Laplacians: the FFT integration rounds at 1e-6 of the peak
+    np.testing.assert_allclose(image, want, rtol=0, atol=1e-5 * np.abs(want).max())
+    if method == "spreadlets":
+        ctx = renderer.device.context
+        flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
+        out = wrapper.run(cl.Buffer(ctx, flags, hostbuf=colour), cl.Buffer(ctx, flags, hostbuf=coords), h, w,
+                          tile=(8, 7), angle_buf=cl.Buffer(ctx, flags, hostbuf=angle))
+        canvas = turned_spreadlet_canvas(db, colour, coords, angle, canvas_shape(h, w, db.pad), True, pad=db.pad)
+        np.testing.assert_allclose(out.canvas[0], canvas, rtol=0, atol=1e-5 * np.abs(canvas).max())

@@ -210,7 +210,7 @@ def test_runs_of_same_cell_pixels(method):
         ctx = runs.device.context
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         for renderer in (runs, short):
-            out = renderer._wrappers[("spreadlets", 3, False)].run(
+            out = renderer._wrappers[("spreadlets", 3, False, False)].run(
                 cl.Buffer(ctx, flags, hostbuf=colour), cl.Buffer(ctx, flags, hostbuf=coords), 20, 90, tile=(40, 16))
             close(out.canvas[0], lap)
             close(out.canvas[1], dense)

@@ -106,7 +106,7 @@ class SpreadletPass(RuntimePass):
             image, t = self.renderer.render(rgb, coords.coords, self.method, angle=coords.angle)
             device_ms = t["kernel_ms"] + t["integrate_device_ms"]
             transfer_ms = t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"]
-            counts = {k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels")}
+            counts = {k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels", "highlights")}
         else:
             pixels, per_layer = layered
             splatter = SpreadletLayerSplatter(self.renderer, self.method, per_layer)

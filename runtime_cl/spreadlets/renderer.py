@@ -21,6 +21,7 @@ from runtime_cl.device.opencl import Device, as_f32, event_ms, get_device
 from runtime_cl.psf.upload import DeviceDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.spreadlets.gather import GatherFilter
+from runtime_cl.spreadlets.highlights import bright_pixels, splat_highlights
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
@@ -128,7 +129,8 @@ class Renderer:
             kernels and copies of a device integrator), ``download_ms``,
             ``compile_ms`` (kernel builds this call needed; 0 once built), ``total_ms`` (wall
             clock of the whole call); counts ``pixels``, ``spreadlets``, ``dense_pixels``
-            (splatted or gathered), ``tiles`` (splat work items; 0 for ``filter``);
+            (splatted or gathered), ``tiles`` (splat work items; 0 for ``filter``),
+            ``highlights`` (pixels the spreadlet method splat dense as HDR highlights);
             ``rotated`` (whether the PSFs were turned).
         """
         import pyopencl as cl
@@ -154,6 +156,9 @@ class Renderer:
         if angle is not None:
             angle = self._angle(angle, (h, w))
         rotate = angle is not None and not self.rotation_invariant
+        # HDR highlights leave the Laplacian canvas (spreadlets/highlights.py): dense, on their own
+        bright = bright_pixels(colour) if getattr(METHODS[method], "dense_highlights", False) else None
+        lit = colour if bright is None else np.where(bright[..., None], np.float32(0), colour)
 
         builds_before = len(self.device.builds)
         wrapper = self._wrapper(method, ch, rotate)
@@ -163,7 +168,7 @@ class Renderer:
         mf = cl.mem_flags
         colour_buf = cl.Buffer(ctx, mf.READ_ONLY, colour.nbytes)
         coords_buf = cl.Buffer(ctx, mf.READ_ONLY, coords.nbytes)
-        ups = [cl.enqueue_copy(q, colour_buf, colour, is_blocking=False),
+        ups = [cl.enqueue_copy(q, colour_buf, lit, is_blocking=False),
                cl.enqueue_copy(q, coords_buf, coords, is_blocking=False)]
         angle_buf = None
         if rotate:
@@ -174,6 +179,13 @@ class Renderer:
              "rotated": rotate}
         image, parts = METHODS[method].run(self, wrapper, colour_buf, coords_buf, h, w, angle_buf)
         t.update(parts)
+        if bright is not None:
+            extra, more = splat_highlights(self, colour, coords, angle, bright)
+            image += extra
+            for k, v in more.items():
+                t[k] += v
+            t["kernel_ms"] += more["splat_ms"] + more["merge_ms"]
+        t["highlights"] = 0 if bright is None else int(bright.sum())
         t["total_ms"] = (time.perf_counter() - start) * 1e3
         return image, t
 
@@ -184,6 +196,7 @@ class _Spreadlets:
 
     splats_spreadlets = True   # spreadlet_rotation and run_max matter
     dense_all = False
+    dense_highlights = True    # pixels above HDR_RATIO x the typical level splat dense (highlights.py)
 
     @classmethod
     def wrapper(cls, r: Renderer, channels: int, rotate: bool):
@@ -220,6 +233,7 @@ class _Splat(_Spreadlets):
 
     splats_spreadlets = False
     dense_all = True
+    dense_highlights = False
 
     @staticmethod
     def image(r: Renderer, out, h: int, w: int) -> tuple:

@@ -33,8 +33,9 @@ HDR_RATIO = 2.0 ** 20
 _SAMPLE = 7
 
 
-def bright_pixels(colour: np.ndarray):
-    """(H, W) bool of the pixels above :data:`HDR_RATIO` times the typical level, or None.
+def bright_pixels(colour: np.ndarray, ratio: float = HDR_RATIO):
+    """(H, W) bool of the pixels above ``ratio`` (default :data:`HDR_RATIO`) times the typical
+    level, or None.
 
     ``colour`` is (H, W, C) float32; a pixel's level is its largest channel, the typical level
     the median of the lit (> 0) pixels of a strided sample (of all pixels if that holds none).
@@ -47,7 +48,7 @@ def bright_pixels(colour: np.ndarray):
     if lit.size == 0:
         whole = colour.max(axis=2)
         lit = whole[whole > 0]
-    limit = HDR_RATIO * float(np.median(lit))
+    limit = ratio * float(np.median(lit))
     if top <= limit:
         return None
     return colour.max(axis=2) > limit

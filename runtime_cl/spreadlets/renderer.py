@@ -21,7 +21,7 @@ from runtime_cl.device.opencl import Device, as_f32, event_ms, get_device
 from runtime_cl.psf.upload import DeviceDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.spreadlets.gather import GatherFilter
-from runtime_cl.spreadlets.highlights import bright_pixels, splat_highlights
+from runtime_cl.spreadlets.highlights import HDR_RATIO, bright_pixels, splat_highlights
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
@@ -54,11 +54,16 @@ class Renderer:
     crop_integration : bool
         Integrate only the rectangle the splats reach when it is much smaller than the canvas
         (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.
+    hdr_ratio : float or None
+        The ``spreadlets`` method splats pixels brighter than this times the image's typical
+        level with their dense PSFs, outside the Laplacian canvas
+        (:mod:`runtime_cl.spreadlets.highlights`; default :data:`HDR_RATIO`); None: never.
     """
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
                  run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
-                 integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False):
+                 integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False,
+                 hdr_ratio: float | None = HDR_RATIO):
         integrator_class = get_integrator(integrator)   # an unknown name fails before any upload
         if spreadlet_rotation not in SPREADLET_ROTATIONS:
             raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
@@ -71,6 +76,10 @@ class Renderer:
         self.spreadlet_rotation = spreadlet_rotation
         self.integrator = integrator_class(self.device)
         self.crop_integration = bool(crop_integration)
+        if hdr_ratio is not None and (isinstance(hdr_ratio, bool) or not (isinstance(hdr_ratio, (int, float))
+                                                                    and hdr_ratio >= 1.0)):
+            raise InputError(f"hdr_ratio = {hdr_ratio!r}: must be a number >= 1 (or None: no dense highlights)")
+        self.hdr_ratio = hdr_ratio
         self._wrappers: dict = {}
 
     def _wrapper(self, method: str, channels: int, rotate: bool):
@@ -157,7 +166,8 @@ class Renderer:
             angle = self._angle(angle, (h, w))
         rotate = angle is not None and not self.rotation_invariant
         # HDR highlights leave the Laplacian canvas (spreadlets/highlights.py): dense, on their own
-        bright = bright_pixels(colour) if getattr(METHODS[method], "dense_highlights", False) else None
+        splits = self.hdr_ratio is not None and getattr(METHODS[method], "dense_highlights", False)
+        bright = bright_pixels(colour, self.hdr_ratio) if splits else None
         lit = colour if bright is None else np.where(bright[..., None], np.float32(0), colour)
 
         builds_before = len(self.device.builds)

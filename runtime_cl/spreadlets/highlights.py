@@ -54,13 +54,14 @@ def bright_pixels(colour: np.ndarray, ratio: float = HDR_RATIO):
     return colour.max(axis=2) > limit
 
 
-def splat_highlights(renderer, colour: np.ndarray, coords: np.ndarray, angle, bright: np.ndarray) -> tuple:
-    """The dense splat of the ``bright`` pixels of ``colour`` as an (H, W, OC) float32 image.
+def splat_highlights(renderer, image: np.ndarray, colour: np.ndarray, coords: np.ndarray, angle,
+                     bright: np.ndarray) -> dict:
+    """Add the dense splat of the ``bright`` pixels of ``colour`` to ``image`` (H, W, OC), in place.
 
     Renders the bounding box of the bright pixels (others zeroed) with the renderer's Splat
-    kernel and adds its whole padded canvas, cropped to the image. Returns the image and the
-    times and counts to add to the render's (``splat_ms``, ``merge_ms``, ``upload_ms``,
-    ``download_ms``, ``dense_pixels``, ``tiles``).
+    kernel and adds its whole padded canvas, cropped to the image. Returns the times and counts
+    to add to the render's (``splat_ms``, ``merge_ms``, ``upload_ms``, ``download_ms``,
+    ``dense_pixels``, ``tiles``).
     """
     import pyopencl as cl
 
@@ -79,10 +80,9 @@ def splat_highlights(renderer, colour: np.ndarray, coords: np.ndarray, angle, br
     upload_ms = event_ms(*ups)
     out = wrapper.run(bufs[0], bufs[1], y1 - y0, x1 - x0, renderer.tile, bufs[2] if rotate else None)
     p, canvas = out.pad, out.canvas[0]
-    image = np.zeros((h, w, canvas.shape[-1]), np.float32)
     # canvas pixel (cy, cx) is image pixel (y0 + cy - p, x0 + cx - p)
     ty0, tx0 = max(y0 - p, 0), max(x0 - p, 0)
     ty1, tx1 = min(y0 - p + canvas.shape[0], h), min(x0 - p + canvas.shape[1], w)
-    image[ty0:ty1, tx0:tx1] = canvas[ty0 - y0 + p:ty1 - y0 + p, tx0 - x0 + p:tx1 - x0 + p]
-    return image, dict(splat_ms=out.splat_ms, merge_ms=out.merge_ms, upload_ms=upload_ms,
+    image[ty0:ty1, tx0:tx1] += canvas[ty0 - y0 + p:ty1 - y0 + p, tx0 - x0 + p:tx1 - x0 + p]
+    return dict(splat_ms=out.splat_ms, merge_ms=out.merge_ms, upload_ms=upload_ms,
                        download_ms=out.download_ms, dense_pixels=out.dense_pixels, tiles=out.tiles)

@@ -190,8 +190,7 @@ class Renderer:
         image, parts = METHODS[method].run(self, wrapper, colour_buf, coords_buf, h, w, angle_buf)
         t.update(parts)
         if bright is not None:
-            extra, more = splat_highlights(self, colour, coords, angle, bright)
-            image += extra
+            more = splat_highlights(self, image, colour, coords, angle, bright)
             for k, v in more.items():
                 t[k] += v
             t["kernel_ms"] += more["splat_ms"] + more["merge_ms"]

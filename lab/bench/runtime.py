@@ -47,6 +47,7 @@ def bench_runtime(scene_path, repeats: int, reference: bool = True, passes=None)
         ratios[f"{label}_time_over_{base}"] = m["time_ms"] / base_m["time_ms"]
         if reference:
             ratios[f"ssim_{base}_minus_{label}"] = base_m["ssim"] - m["ssim"]
+    ratios.update(_hdr_split_cost(plan, image, databases, methods, repeats))
     throughput = {label: {f"{count}_M_per_s": m["counts"][count] / m["device_ms"] / 1e3
                           for count in RATES if m["counts"].get(count) and m["device_ms"] > 0}
                   for label, m in methods.items()}
@@ -56,3 +57,24 @@ def bench_runtime(scene_path, repeats: int, reference: bool = True, passes=None)
             "targets": {"splat_time_over_spreadlets": ">= 10", "ssim_spreadlets_minus_splat": ">= -0.02",
                         "spreadlets.spreadlets_M_per_s": ">= 300 (aim ~650)"}}
     return output.write_bench("runtime", data)
+
+
+def _hdr_split_cost(plan, image, databases, methods, repeats) -> dict:
+    """The spreadlets pass again without its HDR-highlight check and dense splat (``hdr_ratio =
+    None``, runtime_cl/spreadlets/highlights.py), in the same run: what that fix costs."""
+    from runtime_cl.passes import run_pass
+    from runtime_cl.psf.database import SpreadletDatabase
+    from runtime_cl.psf.far_field import MODEL as FAR_FIELD
+
+    from lab.runtime_passes import frame_of, runtime_camera
+
+    paths = [r.path for model, r in databases.items() if model != FAR_FIELD]
+    if "spreadlets" not in methods or "spreadlets" not in plan.runtime_passes or len(paths) != 1:
+        return {}
+    name, options = plan.pass_run("spreadlets")
+    db = SpreadletDatabase.load(paths[0])
+    _, timing = run_pass(name, frame_of(image, db=db), runtime_camera(image), db, runs=repeats,
+                         **dict(options, hdr_ratio=None))
+    plain = timing.to_json()
+    methods["spreadlets_without_hdr_split"] = dict(plain, ssim=methods["spreadlets"]["ssim"])
+    return {"spreadlets_time_over_spreadlets_without_hdr_split": methods["spreadlets"]["time_ms"] / plain["time_ms"]}

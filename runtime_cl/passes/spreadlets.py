@@ -40,7 +40,9 @@ class SpreadletPass(RuntimePass):
     ``volume_far`` database whose halos are added to a ``volume`` database's render
     (:class:`runtime_cl.psf.far_field.FarField`); ``layered_input``: render the frame's
     ``layerN.*`` layers in the global depth layers instead of its flat image; ``soft_layers``:
-    soft layering width in [0, 1] (:func:`runtime_cl.layers.composite.render_layers`' ``soft``).
+    soft layering width in [0, 1] (:func:`runtime_cl.layers.composite.render_layers`' ``soft``);
+    ``hdr_ratio``: as for :class:`Renderer` (None: no dense highlights; ``splatlab bench runtime``
+    measures the spreadlets pass without them in the same run).
     """
 
     method: ClassVar[str]
@@ -51,15 +53,16 @@ class SpreadletPass(RuntimePass):
 
     def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
                   far_field=None, integrator: str = DEFAULT_INTEGRATOR, layered_input: bool = False,
-                  soft_layers: float = 0.0):
+                  soft_layers: float = 0.0, hdr_ratio="default"):
         get_integrator(integrator)   # an unknown name is an error for every pass
         if integrator != DEFAULT_INTEGRATOR and not self.integrates:
             raise InputError(f"integrator = {integrator!r}: the {self.name!r} pass integrates no Laplacian; "
                              f"the integrator is an option of {integrating_passes()}")
         layered = self.layers > 1 or bool(layered_input)   # layers: integrate where each one lies
+        hdr = {} if hdr_ratio == "default" else {"hdr_ratio": hdr_ratio}
         self.renderer = Renderer(self.db, self.device, tile=tile, run_max=run_max,
                                  spreadlet_rotation=spreadlet_rotation, integrator=integrator,
-                                 crop_integration=layered)
+                                 crop_integration=layered, **hdr)
         self.far = None if far_field is None else FarField(far_field, near=self.db)
         self.layered_input = bool(layered_input)
         self.soft_layers = soft_layers
@@ -114,7 +117,7 @@ class SpreadletPass(RuntimePass):
                 image = image + rgb * coords.direct[..., None]
             device_ms = t["kernel_ms"] + t["integrate_device_ms"]
             transfer_ms = t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"]
-            counts = {k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels")}
+            counts = {k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels", "highlights")}
         else:
             pixels, per_layer = layered
             splatter = SpreadletLayerSplatter(self.renderer, self.method, per_layer)

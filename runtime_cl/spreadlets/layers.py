@@ -44,13 +44,14 @@ class SpreadletLayerSplatter:
 
         self.renderer, self.method, self.coords = renderer, method, list(coords)
         self.blur_splatter = builtin_splatter(BLUR_SHAPE, renderer.device)
-        self.counts = {"spreadlets": 0, "dense_pixels": 0}
+        self.counts = {"spreadlets": 0, "dense_pixels": 0, "highlights": 0}
 
     def _render(self, image, source: int) -> tuple:
         coords, angle = self.coords[source]
         out, t = self.renderer.render(image, coords, self.method, angle=angle)
         self.counts["spreadlets"] += int(t["spreadlets"])
         self.counts["dense_pixels"] += int(t["dense_pixels"])
+        self.counts["highlights"] += int(t["highlights"])
         return out, {"device_ms": t["kernel_ms"] + t["integrate_device_ms"],
                      "transfer_ms": t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"]}
 

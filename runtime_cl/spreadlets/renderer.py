@@ -21,6 +21,7 @@ from runtime_cl.device.opencl import Device, as_f32, event_ms, get_device
 from runtime_cl.psf.upload import DeviceDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.spreadlets.gather import GatherFilter
+from runtime_cl.spreadlets.highlights import HDR_RATIO, bright_pixels, splat_highlights
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
@@ -53,11 +54,16 @@ class Renderer:
     crop_integration : bool
         Integrate only the rectangle the splats reach when it is much smaller than the canvas
         (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.
+    hdr_ratio : float or None
+        The ``spreadlets`` method splats pixels brighter than this times the image's typical
+        level with their dense PSFs, outside the Laplacian canvas
+        (:mod:`runtime_cl.spreadlets.highlights`; default :data:`HDR_RATIO`); None: never.
     """
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
                  run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
-                 integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False):
+                 integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False,
+                 hdr_ratio: float | None = HDR_RATIO):
         integrator_class = get_integrator(integrator)   # an unknown name fails before any upload
         if spreadlet_rotation not in SPREADLET_ROTATIONS:
             raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
@@ -70,6 +76,10 @@ class Renderer:
         self.spreadlet_rotation = spreadlet_rotation
         self.integrator = integrator_class(self.device)
         self.crop_integration = bool(crop_integration)
+        if hdr_ratio is not None and (isinstance(hdr_ratio, bool) or not (isinstance(hdr_ratio, (int, float))
+                                                                    and hdr_ratio >= 1.0)):
+            raise InputError(f"hdr_ratio = {hdr_ratio!r}: must be a number >= 1 (or None: no dense highlights)")
+        self.hdr_ratio = hdr_ratio
         self._wrappers: dict = {}
 
     def _wrapper(self, method: str, channels: int, rotate: bool, half: bool = False):
@@ -128,7 +138,8 @@ class Renderer:
             kernels and copies of a device integrator), ``download_ms``,
             ``compile_ms`` (kernel builds this call needed; 0 once built), ``total_ms`` (wall
             clock of the whole call); counts ``pixels``, ``spreadlets``, ``dense_pixels``
-            (splatted or gathered), ``tiles`` (splat work items; 0 for ``filter``);
+            (splatted or gathered), ``tiles`` (splat work items; 0 for ``filter``),
+            ``highlights`` (pixels the spreadlet method splat dense as HDR highlights);
             ``rotated`` (whether the PSFs were turned).
         """
         import pyopencl as cl
@@ -156,6 +167,10 @@ class Renderer:
         rotate = angle is not None and not self.rotation_invariant
         # only 0 and pi (the coc_sign symmetry): the turned PSFs keep their square, and the canvas its pad
         half = rotate and METHODS[method].splats and half_turns(angle)
+        # HDR highlights leave the Laplacian canvas (spreadlets/highlights.py): dense, on their own
+        splits = self.hdr_ratio is not None and getattr(METHODS[method], "dense_highlights", False)
+        bright = bright_pixels(colour, self.hdr_ratio) if splits else None
+        lit = colour if bright is None else np.where(bright[..., None], np.float32(0), colour)
 
         builds_before = len(self.device.builds)
         wrapper = self._wrapper(method, ch, rotate, half)
@@ -165,7 +180,7 @@ class Renderer:
         mf = cl.mem_flags
         colour_buf = cl.Buffer(ctx, mf.READ_ONLY, colour.nbytes)
         coords_buf = cl.Buffer(ctx, mf.READ_ONLY, coords.nbytes)
-        ups = [cl.enqueue_copy(q, colour_buf, colour, is_blocking=False),
+        ups = [cl.enqueue_copy(q, colour_buf, lit, is_blocking=False),
                cl.enqueue_copy(q, coords_buf, coords, is_blocking=False)]
         angle_buf = None
         if rotate:
@@ -176,6 +191,12 @@ class Renderer:
              "rotated": rotate}
         image, parts = METHODS[method].run(self, wrapper, colour_buf, coords_buf, h, w, angle_buf)
         t.update(parts)
+        if bright is not None:
+            more = splat_highlights(self, image, colour, coords, angle, bright)
+            for k, v in more.items():
+                t[k] += v
+            t["kernel_ms"] += more["splat_ms"] + more["merge_ms"]
+        t["highlights"] = 0 if bright is None else int(bright.sum())
         t["total_ms"] = (time.perf_counter() - start) * 1e3
         return image, t
 
@@ -187,6 +208,7 @@ class _Spreadlets:
     splats_spreadlets = True   # spreadlet_rotation and run_max matter
     splats = True              # a TileSplatter: its canvas padding follows the angles
     dense_all = False
+    dense_highlights = True    # pixels above HDR_RATIO x the typical level splat dense (highlights.py)
 
     @classmethod
     def wrapper(cls, r: Renderer, channels: int, rotate: bool, half: bool = False):
@@ -223,6 +245,7 @@ class _Splat(_Spreadlets):
 
     splats_spreadlets = False
     dense_all = True
+    dense_highlights = False
 
     @staticmethod
     def image(r: Renderer, out, h: int, w: int) -> tuple:

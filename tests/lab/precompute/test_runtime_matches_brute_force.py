@@ -1,6 +1,7 @@
 """Held-out check: every model's database, rendered by the runtime's spreadlets from a small
 synthetic labelled image, matches a brute-force numpy scatter of the same database's dense PSFs
-(each turned as its symmetry says; ``tests/runtime_cl/rotation_reference.py``): SSIM >= 0.995.
+(each turned as its symmetry says; ``tests/runtime_cl/rotation_reference.py``): SSIM >= 0.995;
+the dense Splat path too (SSIM >= 0.9999).
 
 The databases are the real models' (small settings, PSFs large enough that most cells are
 spreadlets, not fast-tracked dense kernels), so this covers the whole chain a render takes:
@@ -30,7 +31,7 @@ SETUPS = {
     "stylized": (runtime_cl.ThinLens(50.0, 0.12, 2.0, 36.0), (0.3, 0.6),
                  {"max_coc_px": 30.0, "samples": 8, "psf_resolution": 69, "rays_per_pixel": 4096, **_RAYS}),
     "physical_lens": (runtime_cl.ThinLens(50.0, 2.0, 2.0, 36.0), (0.5, 0.9),
-                      {"width_px": 8 * W, "samples": 10, "psf_resolution": 61, "rays_per_pixel": 16384,
+                      {"width_px": 8 * W, "samples": 10, "psf_resolution": 61, "rays_per_pixel": 2 ** 18,
                        "max_eccentricity_px": 160.0, **_RAYS}),
     "volume": (runtime_cl.ThinLens(50.0, 2.0, 2.0, 36.0), (0.5, 4.5),
                {"width_px": W, "samples": 10, "psf_resolution": 63, **_RAYS}),
@@ -48,10 +49,12 @@ def _scene(depths, width, seed=0):
     return colour, depth, motion
 
 
-# The SSIM each model's render reaches. Issue 11's target is 0.995 for every model; the physical
-# lens reaches 0.990 here (its cat-eye PSFs sparsified at density 1, even at 16384 rays per
-# pixel), so its floor guards today's figure until the sparsifier reaches the target.
-FLOOR = {"physical_lens": 0.985}
+# Issue 11's target for every model. The spreadlets are fitted to the sparsifier's denoised copy of
+# each traced PSF (lab/sparsify/noise.py), the dense PSFs (Splat, the brute force) are the raw
+# histograms: at 16384 rays per pixel the denoiser blurred the physical lens's thin caustic lines
+# by 0.5-0.75 px, which alone was SSIM 0.992 (spreadlets 0.991, though 0.9988 against a brute
+# force of their own integrated PSFs). At 2^18 rays per pixel it blurs by 0-0.5 px: 0.998.
+FLOOR = 0.995
 
 
 def _check(name, cache):
@@ -61,14 +64,18 @@ def _check(name, cache):
     colour, depth, motion = _scene(depths, db.params["config"].get("width_px", W))
     motion = motion if needs_motion(db.model) else None
     ours, _ = runtime_cl.render(colour, depth, camera, db, motion=motion)
+    dense, _ = runtime_cl.render(colour, depth, camera, db, motion=motion, method="splat")
     pc = psf_coords(camera, depth, db, motion)
     spread = ~db.fast_track[db.grid.index(pc.coords.reshape(-1, db.grid.ns).astype(np.float64))]
     assert spread.mean() >= 0.5, "most pixels must splat spreadlets for the check to mean anything"
     brute = (splat_image(db, colour, pc.coords) if pc.angle is None or db.params["symmetries"] == ["rotation"]
              else turned_splat_image(db, colour, pc.coords, pc.angle))
-    ours, brute = ours[..., :3], np.broadcast_to(brute, ours.shape)[..., :3]
+    ours, dense, brute = ours[..., :3], dense[..., :3], np.broadcast_to(brute, ours.shape)[..., :3]
     score = structural_similarity(ours, brute, data_range=float(brute.max()), channel_axis=2)
-    assert score >= FLOOR.get(name, 0.995), (name, score)
+    assert score >= FLOOR, (name, score)
+    # the Splat path draws the same dense PSFs: only float32 sums apart (measured 1.0000)
+    score = structural_similarity(dense, brute, data_range=float(brute.max()), channel_axis=2)
+    assert score >= 0.9999, (name, "splat", score)
 
 
 @pytest.mark.parametrize("name", ["simple_lens", "combined", "stylized"])

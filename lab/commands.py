@@ -215,7 +215,7 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False, sweep=None) -> tuple:
+def _report(scene_path, out_dir, baseline, executor=None, noise: bool = True, sweep=None) -> tuple:
     from .pipeline import run_report
 
     report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise, sweep=sweep)
@@ -227,6 +227,8 @@ def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False, s
     floor = report["reference"].get("noise_floor")
     if floor:
         print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")
+    elif report["reference"].get("noise_floor_skipped"):
+        print(f"  noise floor: not measured ({report['reference']['noise_floor_skipped']})")
     if "sweep" in report:
         from .report.sweep_section import describe_sweep
 
@@ -251,7 +253,10 @@ def cmd_report(args) -> int:
     if getattr(args, "sweep", False):
         from .report.knobs import select_knobs
 
-        sweep, noise = select_knobs(args.knobs), True   # the sweep's points get noise-corrected PSNRs
+        if not noise:
+            raise UserError("--sweep --no-noise-floor: the sweep scores its points by the noise-corrected PSNR, "
+                            "which needs the second reference; drop --no-noise-floor")
+        sweep = select_knobs(args.knobs)
     elif getattr(args, "knobs", None) is not None:
         raise UserError(f"--knobs {','.join(args.knobs)}: --knobs chooses what --sweep turns; add --sweep")
     names = [load_scene_and_plan(s)[0].name for s in scenes]        # every scene valid before hours of work

@@ -60,8 +60,16 @@ REFERENCES = {"mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "m
 
 def reference_step(name: str, scene, image):
     """What the plan's reference step ``name`` is for ``scene`` (``image``: its labelled input): a
-    ``RenderJob`` to run, or the (H, W, 3) reference image when nothing needs rendering."""
+    ``RenderJob`` to run, an :class:`~lab.reference.adaptive.AdaptiveJob` around it when the scene
+    asks for ``[render] reference_adaptive``, or the (H, W, 3) reference image when nothing needs
+    rendering."""
+    from .adaptive import AdaptiveJob
+    from .passes import RenderJob
+
     if name not in REFERENCES:
         raise UserError(f"reference {name!r}: no renderer is registered for it; known references are "
                         f"{sorted(REFERENCES)}")
-    return REFERENCES[name](scene, image)
+    step = REFERENCES[name](scene, image)
+    if isinstance(step, RenderJob) and scene.render.reference_adaptive is not None:
+        return AdaptiveJob(step, scene.render.reference_adaptive)
+    return step

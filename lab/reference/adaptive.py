@@ -10,10 +10,17 @@ three rounds, each a job of seeded, cached passes (:mod:`lab.reference.passes`):
 2. the **base**: the plain reference (``reference_spp``, the ``"reference"`` stream), unchanged;
 3. **tiles**: the frame is cut into ``tile_px`` squares; from the pilot, each tile's expected
    squared error of the base *in the tonemapped domain the metrics use*
-   (:func:`tonemapped_error`) is estimated, and ``E * width * height`` extra samples are shared
-   among the ``K`` tiles of largest error so as to minimise the frame's summed squared error
-   (:func:`allocate`: n_t ~ sqrt(error_t), water-filled). Each chosen tile is rendered through
-   the film crop of the same sensor (:attr:`RenderJob.crop`), seed stream ``("adaptive", t)``.
+   (:func:`tonemapped_error`), weighted by what that error costs SSIM there (:func:`ssim_weight`:
+   noise on a flat region, a clipped bokeh disc or a plain wall, costs far more than on texture),
+   is estimated, and ``E * width * height`` extra samples are shared among the ``K`` tiles of
+   largest error so as to minimise the frame's summed weighted error (:func:`allocate`:
+   n_t ~ sqrt(error_t), water-filled). Each chosen tile is rendered through the film crop of the
+   same sensor (:attr:`RenderJob.crop`), seed stream ``("adaptive", t)``.
+
+It pays where the noise is concentrated and the base already converges the rest: on a small
+light's speckled bokeh disc over a plain wall (the tests' scene) SSIM +0.02 and a 3.5-6.6x lower
+worst-tile error than uniform sampling at the same samples; on ``tiny`` at 32 spp (f/0.5, bokeh
+over the whole frame) the worst tile improved 1.4x but SSIM did not (0.755 against 0.771).
 
 Each pixel's value is the plain weighted mean of its base and tile samples.
 
@@ -44,7 +51,7 @@ from ..report.metrics import tonemap
 from ..scene import AdaptiveSettings
 from .passes import RenderJob
 
-__all__ = ["AdaptiveJob", "allocate", "tile_grid", "tonemapped_error"]
+__all__ = ["AdaptiveJob", "allocate", "ssim_weight", "tile_grid", "tonemapped_error"]
 
 PILOT_PASSES = 8   # the pilot's passes: 7 degrees of freedom per pixel, averaged over a tile
 SSIM_C2 = 0.03 ** 2  # SSIM's C2 at data_range 1 (K2 = 0.03, as skimage)
@@ -195,6 +202,6 @@ class AdaptiveJob:
         extra = sum(spp * tw * th for _, (_, _, tw, th), spp in chosen) / (w * h)
         info = {"pilot_spp": self.pilot_spp, "base_spp": job.spp, "extra_spp": round(extra, 2),
                 "total_spp": round(self.pilot_spp + job.spp + extra, 2), "tile_px": s.tile_px,
-                "tiles_refined": len(chosen), "tile_spp_max": max((job.spp + n for *_, n in chosen), default=job.spp),
-                "predicted_tonemapped_mse_uniform": float(error.mean())}
+                "tiles_refined": len(chosen),
+                "tile_spp_max": max((job.spp + n for *_, n in chosen), default=job.spp)}
         return (total / weights).astype(np.float32), info

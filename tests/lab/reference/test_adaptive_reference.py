@@ -147,3 +147,16 @@ def test_adaptive_beats_uniform_at_equal_samples(speckle, brute):
     # margins: half the gains measured on two seeds (see SETTINGS)
     assert worst_tile(image) < 0.5 * worst_tile(uniform)
     assert ssim(image, ref) > ssim(uniform, ref) + 0.01
+
+
+def test_the_setting_changes_the_render_key_and_round_trips(speckle):
+    from lab.pipeline import render_key
+    from lab.scene import parse_scene
+
+    asked = parse_scene({**SCENE, "render": {**SCENE["render"], "reference_adaptive": {"extra_spp": 64}}}, "a")
+    other = replace(asked, render=replace(asked.render, reference_adaptive=replace(
+        asked.render.reference_adaptive, tiles=4)))
+    keys = {render_key(s) for s in (speckle, asked, other)}
+    assert len(keys) == 3
+    assert parse_scene(asked.to_dict(), "again") == asked
+    assert asked.render.reference_adaptive == AdaptiveSettings(extra_spp=64)

@@ -63,4 +63,4 @@ class ChromaticJob(RenderJob):
 
     def render(self, p: RenderPass) -> np.ndarray:
         """One pass at its wavelength: (H, W, 3) float32 (the average keeps its channel)."""
-        return launch(self.mitsuba_scene(p.get("wavelength_nm")), p.spp, p.seed, one_thread=self.crop is not None)
+        return launch(self.mitsuba_scene(p.get("wavelength_nm")), p.spp, p.seed, one_thread=self.one_thread(p))

@@ -26,7 +26,8 @@ A job that renders a film crop (:attr:`RenderJob.crop`: an adaptive reference's 
 thousand pixels) would need hundreds of such 4-spp launches, each costing more in launch overhead
 than in samples; its passes instead render on one Dr.Jit thread (:func:`launch`), where every
 sample is added in one fixed order, so any power-of-two ``spp`` gives the same image everywhere
-(``split_spp(..., one_thread=True)``).
+(``split_spp(..., one_thread=True)``), unless they are large enough for the fixed blocks
+(:meth:`RenderJob.one_thread`).
 """
 from __future__ import annotations
 
@@ -274,7 +275,13 @@ class RenderJob:
 
     def render(self, p: RenderPass) -> np.ndarray:
         """One pass: (H, W, 3) float32 mean radiance of its ``spp`` samples."""
-        return launch(self.mitsuba_scene(), p.spp, p.seed, one_thread=self.crop is not None)
+        return launch(self.mitsuba_scene(), p.spp, p.seed, one_thread=self.one_thread(p))
+
+    def one_thread(self, p: RenderPass) -> bool:
+        """Whether pass ``p`` renders on one thread: a crop's pass below :data:`FIXED_BLOCK_LANES`
+        samples (larger ones use Dr.Jit's fixed blocks, the same on any thread count)."""
+        w, h = self.size
+        return self.crop is not None and w * h * p.spp < FIXED_BLOCK_LANES
 
     def run(self, progress: bool = True) -> np.ndarray:
         """Render every pass here, in order, and :func:`average` them. (H, W, 3) float32."""

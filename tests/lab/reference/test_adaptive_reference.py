@@ -160,3 +160,21 @@ def test_the_setting_changes_the_render_key_and_round_trips(speckle):
     assert len(keys) == 3
     assert parse_scene(asked.to_dict(), "again") == asked
     assert asked.render.reference_adaptive == AdaptiveSettings(extra_spp=64)
+
+
+def test_crop_passes_do_not_depend_on_the_thread_count(speckle):
+    """A tile's passes are large (no 4-spp split) and render on one thread: the same image on 1 or
+    2 Dr.Jit threads, bit for bit."""
+    import drjit as dr
+
+    job = replace(reference_job(speckle, spp=96), crop=(8, 8, 16, 16))
+    assert [p.spp for p in job.passes()] == [64, 32] and all(job.one_thread(p) for p in job.passes())
+    threads, images = dr.thread_count(), []
+    try:
+        for n in (1, 2):
+            dr.set_thread_count(n)
+            images.append(np.stack([job.render(p) for p in job.passes()]))
+    finally:
+        dr.set_thread_count(threads)
+    assert images[0].shape == (2, 16, 16, 3) and np.array_equal(images[0], images[1])
+    assert dr.thread_count() == threads

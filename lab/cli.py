@@ -203,7 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "--no-noise-floor skips it and the page says so)")
     p.add_argument("--sweep", action="store_true", help="also run every method at each value of each knob that "
                    "applies to it (operating point, PSF samples, rays per PSF, layers, lens rays, integrator, "
-                   "reference spp) and plot accuracy against time with the Pareto front; implies --noise-floor")
+                   "reference spp) and plot accuracy against time with the Pareto front; needs the noise floor")
     p.add_argument("--knobs", metavar="A,B", type=lambda s: s.split(","),
                    help="with --sweep: only these knobs (default all; see lab/report/knobs.py)")
     _add_where(p, "the reference's render passes and the databases' PSFs")

@@ -39,7 +39,8 @@ from tqdm import tqdm
 from ..scene import Scene
 from .backend import mitsuba
 
-__all__ = ["Accumulator", "RenderPass", "RenderJob", "average", "launch", "pass_seeds", "split_spp", "MAX_SAMPLES_PER_PASS",
+__all__ = ["Accumulator", "RenderPass", "RenderJob", "average", "launch", "pass_seeds", "split_spp",
+           "MAX_SAMPLES_PER_PASS",
            "FIXED_BLOCK_LANES"]
 
 MAX_SAMPLES_PER_PASS = 1 << 24  # 16 spp at 1024^2

@@ -52,7 +52,8 @@ def _summary(report: dict) -> str:
     if adaptive:
         text += (f" The reference is adaptive: {fmt(adaptive['base_spp'])} spp everywhere plus "
                  f"{fmt(adaptive['extra_spp'])} spp (frame average) on the {fmt(adaptive['tiles_refined'])} "
-                 f"noisiest {fmt(adaptive['tile_px'])}-px tiles (up to {fmt(adaptive['tile_spp_max'])} spp), found by a "
+                 f"noisiest {fmt(adaptive['tile_px'])}-px tiles (up to {fmt(adaptive['tile_spp_max'])} spp), "
+                 "found by a "
                  f"{fmt(adaptive['pilot_spp'])}-spp pilot that is not in the image.")
     return f"<p class='lead'>{text}</p>"
 

@@ -197,11 +197,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out-dir", type=Path, help="report directory (default reports/<scene name>/); with several "
                    "scenes, the Table 2 page (default reports/table2/) with each scene's report in <dir>/<scene>/")
     p.add_argument("--baseline", type=Path, help="report.json to check for regressions (exit 1 if any; one scene)")
-    p.add_argument("--noise-floor", action="store_true", help="render a second reference with an independent "
-                   "seed and report how far the two agree (the SSIM no method can beat)")
+    p.add_argument("--noise-floor", action=argparse.BooleanOptionalAction, default=None,
+                   help="render a second reference with an independent seed and report how far the two agree "
+                   "(the SSIM no method can beat) and each method's noise-corrected MSE (default for every "
+                   "scene with a reference; --no-noise-floor skips it and the page says so)")
     p.add_argument("--sweep", action="store_true", help="also run every method at each value of each knob that "
                    "applies to it (operating point, PSF samples, rays per PSF, layers, lens rays, integrator, "
-                   "reference spp) and plot accuracy against time with the Pareto front; implies --noise-floor")
+                   "reference spp) and plot accuracy against time with the Pareto front; needs the noise floor")
     p.add_argument("--knobs", metavar="A,B", type=lambda s: s.split(","),
                    help="with --sweep: only these knobs (default all; see lab/report/knobs.py)")
     _add_where(p, "the reference's render passes and the databases' PSFs")

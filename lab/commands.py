@@ -218,7 +218,7 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False, sweep=None) -> tuple:
+def _report(scene_path, out_dir, baseline, executor=None, noise: bool = True, sweep=None) -> tuple:
     from .pipeline import run_report
 
     report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise, sweep=sweep)
@@ -233,6 +233,8 @@ def _report(scene_path, out_dir, baseline, executor=None, noise: bool = False, s
     floor = report["reference"].get("noise_floor")
     if floor:
         print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")
+    elif report["reference"].get("noise_floor_skipped"):
+        print(f"  noise floor: not measured ({report['reference']['noise_floor_skipped']})")
     if "sweep" in report:
         from .report.sweep_section import describe_sweep
 
@@ -257,13 +259,16 @@ def cmd_report(args) -> int:
     if getattr(args, "sweep", False):
         from .report.knobs import select_knobs
 
-        sweep, noise = select_knobs(args.knobs), True   # the sweep's points get noise-corrected PSNRs
+        if noise is False:
+            raise UserError("--sweep --no-noise-floor: the sweep scores its points by the noise-corrected PSNR, "
+                            "which needs the second reference; drop --no-noise-floor")
+        sweep = select_knobs(args.knobs)
     elif getattr(args, "knobs", None) is not None:
         raise UserError(f"--knobs {','.join(args.knobs)}: --knobs chooses what --sweep turns; add --sweep")
     loaded = [load_scene_and_plan(s) for s in scenes]               # every scene valid before hours of work
     names = [scene.name for scene, _ in loaded]
     for path, (_, plan) in zip(scenes, loaded):
-        if not plan.scored and (noise or len(scenes) > 1 or args.baseline is not None):
+        if not plan.scored and (noise or sweep is not None or len(scenes) > 1 or args.baseline is not None):
             what = ("--sweep" if sweep is not None else "--noise-floor" if noise else
                     "--baseline" if args.baseline is not None else "LSR18 Table 2 over several scenes")
             raise UserError(f"{path}: {what} scores against a reference, and this scene has none "
@@ -274,15 +279,20 @@ def cmd_report(args) -> int:
         check_output_dir(args.out_dir or REPORTS / "table2")   # before hours of work
     with _executor(args) as executor:
         if len(scenes) == 1:
-            return _report(scenes[0], args.out_dir, args.baseline, executor, noise, sweep)[0]
+            return _report(scenes[0], args.out_dir, args.baseline, executor, _noise(noise, loaded[0][1]), sweep)[0]
         root = Path(args.out_dir) if args.out_dir else None
         codes, reports, dirs = [], [], []
-        for path, name in zip(scenes, names):
-            code, report, out = _report(path, root / name if root else None, None, executor, noise, sweep)
+        for path, name, (_, plan) in zip(scenes, names, loaded):
+            code, report, out = _report(path, root / name if root else None, None, executor, _noise(noise, plan), sweep)
             codes.append(code), reports.append(report), dirs.append(out)
     page = write_summary(reports, dirs, root or REPORTS / "table2")
     print(f"LSR18 Table 2 over {len(reports)} scenes: {page.resolve()}")
     return max(codes)
+
+
+def _noise(asked, plan) -> bool:
+    """--noise-floor as given, else on wherever there is a reference to measure it against."""
+    return plan.scored if asked is None else asked
 
 
 def cmd_demo(args) -> int:

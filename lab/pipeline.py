@@ -14,7 +14,7 @@ from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 
-from runtime_cl.atomic_file import check_output, check_output_dir, remove_stale_temps
+from runtime_cl.atomic_file import atomic_path, check_output, check_output_dir, remove_stale_temps
 
 from .cache_key import code_digest
 from .errors import UserError
@@ -90,16 +90,22 @@ def inputs_and_reference(scene: Scene, plan: Plan, progress: bool = True,
                             f"scene has none ({plan.references[0].detail})")
         info["none"] = plan.references[0].detail
         return image, None, info
-    reference, info["reference_s"] = _reference(scene, plan, image, ref_path, executor, progress)
+    reference, info["reference_s"], adaptive = _reference(scene, plan, image, ref_path, executor, progress)
+    if adaptive is not None:
+        info["adaptive"] = adaptive
     if not isinstance(info["reference_s"], str) and plan.references[0].name != "pinhole":
         info["reference_on"] = executor.describe()
     info.update(reference_spp=scene.render.reference_spp)
     if second and plan.references[0].name != "pinhole":
         other = reseeded(scene, 1)
-        again, seconds = _reference(other, plan, image, folder / "reference_b.exr", executor, progress)
+        again, seconds, _ = _reference(other, plan, image, folder / "reference_b.exr", executor, progress)
         info["noise_floor"] = {"ssim": ssim(again, reference), "psnr": psnr(again, reference),
                                "seeds": [scene.render.seed, other.render.seed], "reference_s": seconds}
         info[SECOND_REFERENCE] = again   # not for report.json: run_report takes it out
+    elif plan.references[0].name == "pinhole":
+        info["noise_floor_skipped"] = "the reference is the labelled input itself: no path-tracing noise"
+    else:
+        info["noise_floor_skipped"] = "skipped (--no-noise-floor)"
     return image, reference, info
 
 
@@ -129,21 +135,29 @@ def _input(scene: Scene, path: Path, progress: bool) -> tuple:
 def _reference(scene: Scene, plan: Plan, image, path: Path, executor: Executor, progress: bool) -> tuple:
     """The plan's reference of ``scene`` at ``path`` (read if cached; else rendered where ``executor``
     says, its passes cached in ``<path stem>-passes/`` until the EXR is written); (image, seconds or
-    "cached")."""
+    "cached", what an adaptive reference spent or None)."""
+    from .reference.adaptive import AdaptiveJob
     from .reference.execute import run_job
     from .reference.passes import RenderJob
     from .reference.references import reference_step
 
+    sidecar = path.with_name(f"{path.stem}-adaptive.json")   # what an adaptive reference spent
     if path.exists():
-        return read_rgb(path), "cached"
+        return read_rgb(path), "cached", (json.loads(sidecar.read_text()) if sidecar.exists() else None)
     t = time.perf_counter()
     reference = reference_step(plan.references[0].name, scene, image)
     passes = path.with_name(f"{path.stem}-passes")
-    if isinstance(reference, RenderJob):
+    adaptive = None
+    if isinstance(reference, AdaptiveJob):
+        reference, adaptive = reference.run(
+            lambda job, name, stats: run_job(job, executor, passes / name, progress, stats))
+        with atomic_path(sidecar) as tmp:
+            tmp.write_text(json.dumps(adaptive))
+    elif isinstance(reference, RenderJob):
         reference = run_job(reference, executor, passes, progress)
     write_rgb(path, reference)
     shutil.rmtree(passes, ignore_errors=True)  # the EXR now holds them
-    return reference, round(time.perf_counter() - t, 2)
+    return reference, round(time.perf_counter() - t, 2), adaptive
 
 
 def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool = False,
@@ -177,11 +191,12 @@ def default_out_dir(scene: Scene) -> Path:
 
 
 def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
-               executor: Executor | None = None, noise: bool = False, sweep=None) -> dict:
+               executor: Executor | None = None, noise: bool = True, sweep=None) -> dict:
     """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict.
 
     ``executor`` (default: this process) runs the reference's passes and the databases' cells;
-    ``noise`` measures the reference's noise floor (see :func:`inputs_and_reference`); ``sweep``
+    ``noise`` (default True: every report states it) measures the reference's noise floor and each
+    method's noise-corrected MSE (see :func:`inputs_and_reference`); ``sweep``
     (a list of :class:`lab.report.knobs.Knob`) also measures accuracy against time knob by knob
     (:mod:`lab.report.sweep`).
     """
@@ -190,7 +205,7 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
 
 
 def report_scene(scene: Scene, plan: Plan, out_dir=None, baseline=None, progress: bool = True,
-                 executor: Executor | None = None, noise: bool = False, sweep=None) -> dict:
+                 executor: Executor | None = None, noise: bool = True, sweep=None) -> dict:
     """:func:`run_report` on a loaded scene and its plan."""
     from .report.build import assemble_report
 

@@ -63,6 +63,28 @@ class SceneInfo:
 
 
 @dataclass(frozen=True)
+class AdaptiveSettings:
+    """``[render] reference_adaptive = { extra_spp = E, tiles = K }``: after the reference's own
+    samples, ``E`` more samples per pixel of the frame, spent on at most ``K`` tiles of ``tile_px``
+    where a pilot of ``pilot_spp`` (default reference_spp / 8, at least 8) finds the most noise
+    (:mod:`lab.reference.adaptive`)."""
+
+    extra_spp: int
+    tiles: int = 16
+    tile_px: int = 32
+    pilot_spp: int | None = None
+
+    def __post_init__(self):
+        # every refined tile is its own Mitsuba launch and kernel build: thousands would cost more than they save
+        for key, low, high in (("extra_spp", 1, RENDER_BOUNDS["reference_spp"][0]), ("tiles", 1, 4096),
+                               ("tile_px", 8, 4096), ("pilot_spp", 8, RENDER_BOUNDS["reference_spp"][0])):
+            value = getattr(self, key)
+            if value is not None and not low <= value <= high:
+                raise UserError(f"reference_adaptive.{key} = {value} must be between {low} and {high}, e.g. "
+                                "reference_adaptive = { extra_spp = 512, tiles = 16 }")
+
+
+@dataclass(frozen=True)
 class RenderSettings:
     """``[render]``: samples per pixel of the reference and of the input, seed, path length.
 
@@ -77,6 +99,8 @@ class RenderSettings:
     plus half the largest motion around the frame (LSR18 "Boundary"; :mod:`lab.reference.guard_band`).
     ``depth_layers`` (optional): the thin camera's plan adds the spreadlet passes with this many
     global depth layers (labels ``spreadlets_layers``, ...; the passes' option ``layers``).
+    ``reference_adaptive`` (optional): spend extra reference samples where its noise is
+    (:class:`AdaptiveSettings`).
     """
 
     reference_spp: int = 256
@@ -88,8 +112,15 @@ class RenderSettings:
     peel_spp: int | None = None
     guard_band: bool = False
     depth_layers: int | None = None
+    reference_adaptive: AdaptiveSettings | None = None
 
     def __post_init__(self):
+        if isinstance(self.reference_adaptive, dict):
+            object.__setattr__(self, "reference_adaptive",
+                               from_table(AdaptiveSettings, self.reference_adaptive, "reference_adaptive"))
+        elif not isinstance(self.reference_adaptive, (AdaptiveSettings, type(None))):
+            raise UserError(f"reference_adaptive = {self.reference_adaptive!r} must be a table, e.g. "
+                            "reference_adaptive = { extra_spp = 512, tiles = 16 }")
         for key in ("reference_spp", "input_spp", "max_depth"):
             if getattr(self, key) < 1:
                 raise UserError(f"{key} = {getattr(self, key)} must be >= 1")

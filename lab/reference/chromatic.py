@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .backend import mitsuba
-from .passes import RenderJob, RenderPass, pass_seeds, split_spp
+from .passes import RenderJob, RenderPass, launch, pass_seeds, split_spp
 
 __all__ = ["ChromaticJob"]
 
@@ -42,7 +42,7 @@ class ChromaticJob(RenderJob):
 
     def passes(self) -> list[RenderPass]:
         """Chunk by chunk, the R, G and B pass of each chunk (same seed), in averaging order."""
-        chunks = split_spp(self.spp, self.scene.width, self.scene.height, self.pass_spp)
+        chunks = split_spp(self.spp, *self.size, self.pass_spp, one_thread=self.crop is not None)
         seeds = pass_seeds(self.scene.render.seed, self.stream, len(chunks))
         out = []
         for n, seed in zip(chunks, seeds):
@@ -56,12 +56,11 @@ class ChromaticJob(RenderJob):
         if wavelength_nm not in self._scenes:
             from .mitsuba_scene import scene_dict
 
-            data = scene_dict(self.scene, self.sensor, medium=self.medium)
+            data = scene_dict(self.scene, self.sensor, medium=self.medium, crop=self.crop)
             data["sensor"]["wavelength_nm"] = float(wavelength_nm)
             self._scenes[wavelength_nm] = mitsuba().load_dict(data)
         return self._scenes[wavelength_nm]
 
     def render(self, p: RenderPass) -> np.ndarray:
         """One pass at its wavelength: (H, W, 3) float32 (the average keeps its channel)."""
-        img = mitsuba().render(self.mitsuba_scene(p.get("wavelength_nm")), spp=p.spp, seed=p.seed)
-        return np.asarray(img, dtype=np.float32)[..., :3]
+        return launch(self.mitsuba_scene(p.get("wavelength_nm")), p.spp, p.seed, one_thread=self.one_thread(p))

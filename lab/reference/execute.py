@@ -101,7 +101,7 @@ def _pass_folder(cache_dir):
             yield folder
 
 
-def run_job(job, executor: Executor | None = None, cache_dir=None, progress: bool = True) -> np.ndarray:
+def run_job(job, executor: Executor | None = None, cache_dir=None, progress: bool = True, stats: bool = False):
     """Render every pass of ``job`` where ``executor`` says and average them in pass order.
 
     Parameters
@@ -118,11 +118,15 @@ def run_job(job, executor: Executor | None = None, cache_dir=None, progress: boo
         temporary folder, removed at the end.
     progress : bool, default True
         A tqdm bar on stderr, in samples per pixel (cached passes count as done).
+    stats : bool, default False
+        Return the :class:`~lab.reference.passes.Accumulator` itself (its mean, channel weights and
+        the variance of the mean from the passes' spread) instead of the mean.
 
     Returns
     -------
     (H, W, 3) float32
-        The per-channel weighted mean of the passes, bitwise the same as ``job.run()``.
+        The per-channel weighted mean of the passes, bitwise the same as ``job.run()`` (or the
+        Accumulator, with ``stats``).
 
     Raises
     ------
@@ -161,4 +165,4 @@ def run_job(job, executor: Executor | None = None, cache_dir=None, progress: boo
                     add_ready()
             finally:
                 results.close()
-        return acc.mean()
+        return acc if stats else acc.mean()

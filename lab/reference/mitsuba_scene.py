@@ -60,8 +60,10 @@ def _shape(shape: Shape, material_ids: dict) -> dict:
     return out
 
 
-def sensor_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
-    """The Mitsuba sensor: the scene's camera (``"scene"``) or a pinhole with the same view."""
+def sensor_dict(scene: Scene, sensor: str = "scene", spp: int = 1, crop=None) -> dict:
+    """The Mitsuba sensor: the scene's camera (``"scene"``) or a pinhole with the same view;
+    ``crop`` = (x, y, width, height) renders only that window of the film (its pixels sampled as
+    in the whole frame: the sensors map the window into the full film)."""
     if sensor not in SENSORS:
         raise ValueError(f"sensor = {sensor!r}: use one of {SENSORS}")
     mi = mitsuba()
@@ -74,6 +76,11 @@ def sensor_dict(scene: Scene, sensor: str = "scene", spp: int = 1) -> dict:
                  "pixel_format": "rgb", "component_format": "float32", "rfilter": {"type": "box"}},
         "sampler": {"type": "independent", "sample_count": int(spp)},
     }
+    if crop is not None:
+        x, y, w, h = (int(v) for v in crop)
+        if not (0 <= x and 0 <= y and w >= 1 and h >= 1 and x + w <= scene.width and y + h <= scene.height):
+            raise ValueError(f"crop = {crop}: the window must lie inside the {scene.width}x{scene.height} film")
+        out["film"].update(crop_offset_x=x, crop_offset_y=y, crop_width=w, crop_height=h)
     return cam.mitsuba_sensor(out) if sensor == "scene" else out
 
 
@@ -92,7 +99,7 @@ def _box_boundary(box) -> dict:
             "interior": {"type": "ref", "id": "medium"}}
 
 
-def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool = False) -> dict:
+def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool = False, crop=None) -> dict:
     """The whole Mitsuba scene dict (``mi.load_dict`` it) with a ``path`` integrator.
 
     Parameters
@@ -110,11 +117,13 @@ def scene_dict(scene: Scene, sensor: str = "scene", spp: int = 1, medium: bool =
         without it): a ``volpath`` integrator, the medium around the sensor and outside every shape;
         a medium with a ``box``: the interior of a null-BSDF cube (:func:`_box_boundary`), around
         the sensor and the shapes inside the box only.
+    crop : (x, y, width, height), optional
+        Render only this window of the film (:func:`sensor_dict`).
     """
     fog = medium and scene.medium is not None
     out = {"type": "scene", "integrator": {"type": "volpath" if fog else "path",
                                            "max_depth": scene.render.max_depth},
-           "sensor": sensor_dict(scene, sensor, spp)}
+           "sensor": sensor_dict(scene, sensor, spp, crop)}
     box = scene.medium.box if fog else None
     inside = [True] * len(scene.shapes) if box is None else shapes_inside(box, scene.shapes, scene.source)
     if fog:

@@ -167,8 +167,9 @@ class MotionJob(RenderJob):
         return math.ceil(self.spp / self.subframes)
 
     def passes(self) -> list[RenderPass]:
-        w, h = self.scene.width, self.scene.height
-        plan = [(t, n) for t in self.times() for n in split_spp(self.spp_per_subframe, w, h, self.pass_spp)]
+        w, h = self.size
+        plan = [(t, n) for t in self.times() for n in split_spp(self.spp_per_subframe, w, h, self.pass_spp,
+                                                                   one_thread=self.crop is not None)]
         seeds = pass_seeds(self.scene.render.seed, self.stream, len(plan))
         return [RenderPass(i, n, s, (float(n),) * 3, (("time", t),))
                 for i, ((t, n), s) in enumerate(zip(plan, seeds))]

@@ -65,9 +65,16 @@ REFERENCES = {"none": _none, "mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens
 
 def reference_step(name: str, scene, image):
     """What the plan's reference step ``name`` is for ``scene`` (``image``: its labelled input): a
-    ``RenderJob`` to run, the (H, W, 3) reference image when nothing needs rendering, or None
-    when there is no reference (step ``none``)."""
+    ``RenderJob`` to run, an :class:`~lab.reference.adaptive.AdaptiveJob` around it when the scene
+    asks for ``[render] reference_adaptive``, the (H, W, 3) reference image when nothing needs
+    rendering, or None when there is no reference (step ``none``)."""
+    from .adaptive import AdaptiveJob
+    from .passes import RenderJob
+
     if name not in REFERENCES:
         raise UserError(f"reference {name!r}: no renderer is registered for it; known references are "
                         f"{sorted(REFERENCES)}")
-    return REFERENCES[name](scene, image)
+    step = REFERENCES[name](scene, image)
+    if isinstance(step, RenderJob) and scene.render.reference_adaptive is not None:
+        return AdaptiveJob(step, scene.render.reference_adaptive)
+    return step

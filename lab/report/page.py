@@ -48,6 +48,15 @@ def _summary(report: dict) -> str:
     if floor:
         text += (f" Two references with independent seeds agree at SSIM {floor['ssim']:.3f} and PSNR "
                  f"{floor['psnr']:.2f} dB: the reference's own noise, which no method can beat.")
+    elif ref.get("noise_floor_skipped"):
+        text += f" The reference's noise floor was not measured: {esc(ref['noise_floor_skipped'])}."
+    adaptive = ref.get("adaptive")
+    if adaptive:
+        text += (f" The reference is adaptive: {fmt(adaptive['base_spp'])} spp everywhere plus "
+                 f"{fmt(adaptive['extra_spp'])} spp (frame average) on the {fmt(adaptive['tiles_refined'])} "
+                 f"noisiest {fmt(adaptive['tile_px'])}-px tiles (up to {fmt(adaptive['tile_spp_max'])} spp), "
+                 "found by a "
+                 f"{fmt(adaptive['pilot_spp'])}-spp pilot that is not in the image.")
     return f"<p class='lead'>{text}</p>"
 
 
@@ -75,12 +84,13 @@ def _methods_section(report: dict) -> str:
     nc = all(m.get("noise_corrected_psnr", None) is not None or "noise_corrected_mse" in m for m in methods.values()) \
         and bool(report.get("reference", {}).get("noise_floor"))
     heads = ["method", "pass"] + [h for _, h in TIMING_COLUMNS] + ["SSIM", "PSNR [dB]"]
-    heads += ["noise-corrected PSNR [dB]"] if nc else []
+    heads += ["noise-corrected MSE", "noise-corrected PSNR [dB]"] if nc else []
     heads += ["speed-up vs timing reference", "published (paper)"]
     rows = []
     for name, m in methods.items():
         row = [name, m.get("pass")] + [m.get(c) for c, _ in TIMING_COLUMNS] + [m["ssim"], m["psnr"]]
         if nc:
+            row.append(m.get("noise_corrected_mse"))
             row.append(m.get("noise_corrected_psnr") if m.get("noise_corrected_psnr") is not None else "below the noise")
         row += [m.get("speedup_vs_timing_reference"), published_range(name) or None]
         rows.append(row)
@@ -213,6 +223,11 @@ def _reference_section(report: dict) -> str:
     if floor:
         rows += [("noise floor SSIM", floor["ssim"]), ("noise floor PSNR [dB]", floor["psnr"]),
                  ("noise floor seeds", floor["seeds"])]
+    else:
+        rows += [("noise floor", ref.pop("noise_floor_skipped", "not measured"))]
+    adaptive = ref.pop("adaptive", None)
+    if adaptive:
+        rows += [(f"adaptive: {k.replace('_', ' ')}", v) for k, v in adaptive.items()]
     rows += list(ref.items())
     body = "".join(f"<tr><th class='text'>{esc(k)}</th><td class='text'>{fmt(v)}</td></tr>" for k, v in rows)
     return f"<h2 id='reference'>Reference</h2><table>{body}</table>"

@@ -156,7 +156,7 @@ def _reference_point(task, scene, plan, image, executor) -> dict:
     else:
         path.unlink(missing_ok=True)
         t = time.perf_counter()
-        rgb, _ = _reference(other, plan, image, path, executor, False)
+        rgb, *_ = _reference(other, plan, image, path, executor, False)
         seconds = time.perf_counter() - t
         with atomic_path(seconds_file) as tmp:
             tmp.write_text(json.dumps({"seconds": seconds, "spp": task.value, "seed": seed}))

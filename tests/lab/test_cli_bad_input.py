@@ -324,3 +324,21 @@ def test_medium_box_values(work, capfd, new, needles):
     assert BOX in FOGBOX
     (work / "s.toml").write_text(FOGBOX.replace(BOX, new, 1))
     fails_cleanly(["plan", work / "s.toml"], capfd, work, "s.toml", *needles)
+
+
+@pytest.mark.parametrize("new, needles", [
+    ("seed = 7\nreference_adaptive = 5", ["reference_adaptive = 5", "must be a table"]),
+    ("seed = 7\nreference_adaptive = { tiles = 4 }", ["reference_adaptive", "missing key(s) ['extra_spp']"]),
+    ("seed = 7\nreference_adaptive = { extra_spp = 0 }", ["reference_adaptive.extra_spp = 0", "between 1 and"]),
+    ("seed = 7\nreference_adaptive = { extra_spp = 64, tile_px = 2 }", ["tile_px = 2", "between 8 and 4096"]),
+    ("seed = 7\nreference_adaptive = { extra_spp = 64, pilot_spp = 4 }", ["pilot_spp = 4", "between 8"]),
+    ("seed = 7\nreference_adaptive = { extra_spp = 64, tiles = 1.5 }", ["tiles = 1.5", "integer"]),
+    ("seed = 7\nreference_adaptive = { extra_spp = 64, tile = 8 }", ["unknown key(s) ['tile']", "tile_px"]),
+])
+def test_adaptive_reference_keys(work, capfd, new, needles):
+    fails_cleanly(["plan", scene(work, "seed = 7", new)], capfd, work, "s.toml", "[render]", *needles)
+
+
+def test_sweep_needs_the_noise_floor(work, capfd):
+    fails_cleanly(["report", scene(work, "seed = 7", "seed = 7"), "--sweep", "--no-noise-floor",
+                   "--out-dir", work / "out"], capfd, work, "--sweep --no-noise-floor", "drop --no-noise-floor")

@@ -13,7 +13,7 @@ from lab.report.metrics import psnr, ssim
 def fog_report(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("SPLATLAB_CACHE", str(tmp_path_factory.mktemp("cache")))
-    yield run_report(SCENES / "tiny_fog.toml", tmp_path_factory.mktemp("fog"), progress=False)
+    yield run_report(SCENES / "tiny_fog.toml", tmp_path_factory.mktemp("fog"), progress=False, noise=False)
     mp.undo()
 
 

@@ -54,3 +54,27 @@ def test_warm_run_reuses_everything(tiny_report, e2e_cache, tmp_path, monkeypatc
     first, _ = tiny_report
     for name in ("spreadlets", "splat", "filter"):
         assert np.isclose(report["methods"][name]["ssim"], first["methods"][name]["ssim"], atol=1e-6)
+
+
+def test_every_page_states_its_noise_floor(tiny_report, e2e_cache, tmp_path, monkeypatch):
+    """By default a report renders the reference's independent-seed twin: the page states the floor
+    (SSIM, PSNR of the two) and each method's noise-corrected MSE, seen in headless Chromium;
+    ``noise=False`` (``--no-noise-floor``) says on the page that it was skipped."""
+    from lab.pipeline import run_report
+    from lab.report.browser import Chromium
+
+    report, out = tiny_report
+    floor = report["reference"]["noise_floor"]
+    assert 0.3 < floor["ssim"] < 1.0 and floor["seeds"][0] != floor["seeds"][1]
+    assert all("noise_corrected_mse" in m for m in report["methods"].values())
+    monkeypatch.setenv("SPLATLAB_CACHE", str(e2e_cache))
+    skipped = run_report(TINY, tmp_path / "skipped", progress=False, noise=False)
+    assert "noise_floor" not in skipped["reference"] and "no-noise-floor" in skipped["reference"]["noise_floor_skipped"]
+    with Chromium() as browser:
+        check = browser.load(out / "index.html")
+        text = browser.evaluate("document.body.innerText")
+        assert not check.broken and check["errors"] == []
+        assert f"agree at SSIM {floor['ssim']:.3f}" in text and "noise-corrected MSE" in text
+        browser.load(tmp_path / "skipped" / "index.html")
+        text = browser.evaluate("document.body.innerText")
+        assert "noise floor was not measured: skipped (--no-noise-floor)" in text

@@ -12,7 +12,7 @@ def heart_report(tmp_path_factory):
     mp = pytest.MonkeyPatch()
     mp.setenv("SPLATLAB_CACHE", str(tmp_path_factory.mktemp("cache")))
     out = tmp_path_factory.mktemp("heart")
-    yield run_report(SCENES / "tiny_heart.toml", out, progress=False), out
+    yield run_report(SCENES / "tiny_heart.toml", out, progress=False, noise=False), out
     mp.undo()
 
 

@@ -23,7 +23,7 @@ def report(tmp_path_factory):
     from lab.pipeline import inputs_and_reference, load_scene_and_plan, run_report
 
     out = tmp_path_factory.mktemp("report")
-    rep = run_report(SCENES / "tiny_tiltshift.toml", out, progress=False)
+    rep = run_report(SCENES / "tiny_tiltshift.toml", out, progress=False, noise=False)
     scene, plan = load_scene_and_plan(SCENES / "tiny_tiltshift.toml")
     image, reference, _ = inputs_and_reference(scene, plan, progress=False)
     mp.undo()

@@ -41,6 +41,17 @@ get_camera = _CAMERAS.get
 LENS_RAYS = 100    # lens rays per pixel of the layered pass when [render] lens_rays is not given
 
 
+def check_focus_keys(table: dict, where: str) -> None:
+    """One way to focus a lens camera: a distance, a pixel, or >= 3 pixels (which set the tilt)."""
+    given = [k for k in ("focus_distance_m", "focus_point", "focus_points") if k in table]
+    if len(given) > 1:
+        raise UserError(f"{where}: {given}: give one way to focus (a distance, a pixel, or >= 3 pixels for a "
+                        "tilted focal plane); remove the others")
+    if "focus_points" in table and "sensor_tilt_deg" in table:
+        raise UserError(f"{where}: focus_points and sensor_tilt_deg: the focus points set the tilt; remove "
+                        "sensor_tilt_deg")
+
+
 def with_layered_pass(rule: dict, scene) -> dict:
     """``rule`` plus, with ``[render] peel_layers``, LES10's lens rays through the umbra-peeled
     layers of the input: the ``layered`` pass with ``[render] lens_rays`` rays."""

@@ -39,7 +39,7 @@ from ..motion import scene_moves
 from ..optics.glass import LINE_D_NM, get_glass
 from ..optics.lenses import LENSES, lens_names
 from ..plan import Step
-from .base import Camera, register_camera, with_layered_pass
+from .base import Camera, check_focus_keys, register_camera, with_layered_pass
 
 WAVELENGTHS_NM = (650.0, 510.0, 475.0)   # R, G, B (LES10)
 FOCUS_WAVELENGTH_NM = LINE_D_NM          # focusing and the pinhole scale
@@ -104,13 +104,7 @@ class ThickCamera(Camera):
 
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThickCamera":
-        given = [k for k in ("focus_distance_m", "focus_point", "focus_points") if k in table]
-        if len(given) > 1:
-            raise UserError(f"{where}: {given}: give one way to focus (a distance, a pixel, or >= 3 pixels for a "
-                            "tilted focal plane); remove the others")
-        if "focus_points" in table and "sensor_tilt_deg" in table:
-            raise UserError(f"{where}: focus_points and sensor_tilt_deg: the focus points set the tilt; remove "
-                            "sensor_tilt_deg")
+        check_focus_keys(table, where)
         other = [k for k in THIN_KEYS if k in table]
         if other:
             raise UserError(f"{where}: {other}: a thick lens's focal length, f-number, field of view and aperture "

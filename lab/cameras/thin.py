@@ -36,7 +36,7 @@ from ..focal_constraints import check_table, unresolved
 from ..motion import scene_moves
 from ..optics.iris import Iris
 from ..plan import NO_REFERENCE, Step
-from .base import Camera, motion_plan, register_camera, with_layered_pass
+from .base import Camera, check_focus_keys, motion_plan, register_camera, with_layered_pass
 from .shaped_aperture import SHAPES, ShapedAperture
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
@@ -85,13 +85,7 @@ class ThinCamera(Camera):
 
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThinCamera":
-        given = [k for k in ("focus_distance_m", "focus_point", "focus_points") if k in table]
-        if len(given) > 1:
-            raise UserError(f"{where}: {given}: give one way to focus (a distance, a pixel, or >= 3 pixels for a "
-                            "tilted focal plane); remove the others")
-        if "focus_points" in table and "sensor_tilt_deg" in table:
-            raise UserError(f"{where}: focus_points and sensor_tilt_deg: the focus points set the tilt; remove "
-                            "sensor_tilt_deg")
+        check_focus_keys(table, where)
         if "fov_deg" in table:
             fov = table["fov_deg"]
             fov = float(fov) if type(fov) is int else fov   # shown as from_table would convert it

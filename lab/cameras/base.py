@@ -52,6 +52,16 @@ def check_focus_keys(table: dict, where: str) -> None:
                         "sensor_tilt_deg")
 
 
+def check_focus_pixels(focus_point, focus_points) -> None:
+    """Focus pixels are [column, row] from the top left; a focal plane needs >= 3 of them."""
+    for p in ([focus_point] if focus_point is not None else []) + list(focus_points or ()):
+        if min(p) < 0:
+            raise UserError(f"focus pixel {list(p)}: pixels are [column, row] counted from 0 at the top left")
+    if focus_points is not None and len(focus_points) < 3:
+        raise UserError(f"focus_points = {[list(p) for p in focus_points]}: a focal plane needs >= 3 "
+                        "points; give more, or one focus_point = [x, y]")
+
+
 def with_layered_pass(rule: dict, scene) -> dict:
     """``rule`` plus, with ``[render] peel_layers``, LES10's lens rays through the umbra-peeled
     layers of the input: the ``layered`` pass with ``[render] lens_rays`` rays."""

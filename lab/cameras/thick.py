@@ -39,7 +39,7 @@ from ..motion import scene_moves
 from ..optics.glass import LINE_D_NM, get_glass
 from ..optics.lenses import LENSES, lens_names
 from ..plan import Step
-from .base import Camera, check_focus_keys, register_camera, with_layered_pass
+from .base import Camera, check_focus_keys, check_focus_pixels, register_camera, with_layered_pass
 
 WAVELENGTHS_NM = (650.0, 510.0, 475.0)   # R, G, B (LES10)
 FOCUS_WAVELENGTH_NM = LINE_D_NM          # focusing and the pinhole scale
@@ -121,12 +121,7 @@ class ThickCamera(Camera):
                             f"surfaces = [{ROW}, ...]")
         if self.surfaces is not None:
             object.__setattr__(self, "surfaces", surface_rows(self.surfaces))
-        for p in ([self.focus_point] if self.focus_point is not None else []) + list(self.focus_points or ()):
-            if min(p) < 0:
-                raise UserError(f"focus pixel {list(p)}: pixels are [column, row] counted from 0 at the top left")
-        if self.focus_points is not None and len(self.focus_points) < 3:
-            raise UserError(f"focus_points = {[list(p) for p in self.focus_points]}: a focal plane needs >= 3 "
-                            "points; give more, or one focus_point = [x, y]")
+        check_focus_pixels(self.focus_point, self.focus_points)
         try:
             object.__setattr__(self, "sensor_tilt_deg", check_tilt(self.sensor_tilt_deg, ""))
         except UserError as exc:

@@ -36,7 +36,7 @@ from ..focal_constraints import check_table, unresolved
 from ..motion import scene_moves
 from ..optics.iris import Iris
 from ..plan import NO_REFERENCE, Step
-from .base import Camera, check_focus_keys, motion_plan, register_camera, with_layered_pass
+from .base import Camera, check_focus_keys, check_focus_pixels, motion_plan, register_camera, with_layered_pass
 from .shaped_aperture import SHAPES, ShapedAperture
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
@@ -102,12 +102,7 @@ class ThinCamera(Camera):
         if self.focal_length_mm is None or (self.focus_distance_m is None and self.focus_point is None
                                             and self.focus_points is None):
             raise UserError("a thin lens needs focal_length_mm and focus_distance_m (or focus_point = [x, y])")
-        for p in ([self.focus_point] if self.focus_point is not None else []) + list(self.focus_points or ()):
-            if min(p) < 0:
-                raise UserError(f"focus pixel {list(p)}: pixels are [column, row] counted from 0 at the top left")
-        if self.focus_points is not None and len(self.focus_points) < 3:
-            raise UserError(f"focus_points = {[list(p) for p in self.focus_points]}: a focal plane needs >= 3 "
-                            "points; give more, or one focus_point = [x, y]")
+        check_focus_pixels(self.focus_point, self.focus_points)
         if self.focal_surface is not None:
             object.__setattr__(self, "focal_surface", check_table(self.focal_surface, ""))
             if self.focus_distance_m is None:

@@ -66,7 +66,11 @@ def _imports(path: Path, name: str, packages: dict[str, Path]) -> set[str]:
     return {m for m in found if _locate(m, packages) is not None}
 
 
-def module_files(roots, packages: dict[str, Path] | None = None) -> dict[str, Path]:
+def _excluded(name: str, exclude) -> bool:
+    return any(name == e or name.startswith(e + ".") for e in exclude)
+
+
+def module_files(roots, packages: dict[str, Path] | None = None, exclude=()) -> dict[str, Path]:
     """Every project module that the ``roots`` import, transitively, with the roots themselves.
 
     Parameters
@@ -76,6 +80,9 @@ def module_files(roots, packages: dict[str, Path] | None = None) -> dict[str, Pa
     packages : dict of str -> Path, optional
         Top-level package name -> its folder (default: where ``lab`` and ``runtime_cl`` are
         imported from). Tests point this at an edited copy of the tree.
+    exclude : iterable of str, optional
+        Modules and packages (dotted prefixes) left out, with what only they import: code the
+        result imports but never runs (a test must show that it does not).
 
     Returns
     -------
@@ -96,14 +103,16 @@ def module_files(roots, packages: dict[str, Path] | None = None) -> dict[str, Pa
         name = todo.pop()
         if name in seen:
             continue
+        if _excluded(name, exclude):
+            continue
         seen[name] = path = _locate(name, packages)
         todo.extend(_imports(path, name, packages) - seen.keys())
     return seen
 
 
-def code_digest(roots, packages: dict[str, Path] | None = None) -> str:
-    """sha256 (hex) of the sorted contents of :func:`module_files` ``(roots, packages)``."""
-    files = module_files(roots, packages).values()
+def code_digest(roots, packages: dict[str, Path] | None = None, exclude=()) -> str:
+    """sha256 (hex) of the sorted contents of :func:`module_files` ``(roots, packages, exclude)``."""
+    files = module_files(roots, packages, exclude).values()
     h = hashlib.sha256()
     for digest in sorted(hashlib.sha256(f.read_bytes()).hexdigest() for f in files):
         h.update(digest.encode())

@@ -21,7 +21,7 @@ from scipy.spatial.transform import Rotation
 
 from .errors import UserError
 
-__all__ = ["check_vector", "rigid_motion", "scene_moves", "mid_shutter", "describe_motion"]
+__all__ = ["check_vector", "rigid_motion", "scene_moves", "mid_shutter", "describe_motion", "read_motion"]
 
 
 def check_vector(key: str, value) -> None:
@@ -75,3 +75,13 @@ def describe_motion(scene) -> str:
         parts.append(f"camera velocity {list(scene.camera.velocity)} m per time unit")
     o, c = scene.camera.shutter
     return f"linear per pixel ({', '.join(parts)}; shutter [{o:g}, {c:g}])"
+
+
+def read_motion(image, path, model: str) -> np.ndarray:
+    """The labelled image's per-pixel motion (H, W, 2): channels ``motion.X``, ``motion.Y`` in pixels
+    over the shutter, X right, Y up (what a ``model`` database needs)."""
+    missing = [c for c in ("motion.X", "motion.Y") if c not in image.extra]
+    if missing:
+        raise UserError(f"{path}: channel(s) {missing} missing; a {model!r} database needs per-pixel motion "
+                        "(motion.X, motion.Y: pixels over the shutter, Y up); write them into the EXR")
+    return np.stack([image.extra["motion.X"], image.extra["motion.Y"]], axis=-1)

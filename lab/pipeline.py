@@ -27,11 +27,21 @@ from .scene import Scene, load_scene
 
 # What renders the input and the reference (their imports, lab.optics included, are found, not listed).
 RENDER_ROOTS = ("lab.reference.references", "lab.reference.labelled")
+# imported by the rendering code (through the plan, the cameras and the PSF settings) but never run
+# by it: the runtime's passes and the PSF tracer. Editing them keeps the cached renders (10-40 min
+# for a 1024^2 reference); tests/lab/reference/test_render_key_exclusions.py renders every kind of
+# scene and checks that none of their code runs.
+RENDER_EXCLUDE = ("lab.psf_tracing", "lab.runtime_passes", "runtime_cl.passes", "runtime_cl.spreadlets",
+                  "runtime_cl.integrate", "runtime_cl.layered", "runtime_cl.layers", "runtime_cl.stochastic",
+                  "runtime_cl.psf", "runtime_cl.polygon.kernel", "runtime_cl.polygon.layers",
+                  "runtime_cl.polygon.radii", "runtime_cl.polygon.scale", "runtime_cl.polygon.splat",
+                  "runtime_cl.polygon.terms", "runtime_cl.polygon.uniform")
 
 
 def render_key(scene: Scene, packages=None) -> str:
     """12 hex digits naming a scene's input and reference: the scene's render settings and the
-    content of the code that renders them (:data:`RENDER_ROOTS` and what they import);
+    content of the code that renders them (:data:`RENDER_ROOTS` and what they import, less
+    :data:`RENDER_EXCLUDE`);
     ``packages`` as for :func:`lab.cache_key.code_digest`."""
     data = scene.to_dict()
     data.pop("psf", None)
@@ -40,7 +50,7 @@ def render_key(scene: Scene, packages=None) -> str:
     # file name says so (:func:`inputs_and_reference`), so both share one reference
     for key in ("depth_layers", "guard_band"):
         data["render"].pop(key, None)
-    key = json.dumps({"scene": data, "code": code_digest(RENDER_ROOTS, packages)}, sort_keys=True)
+    key = json.dumps({"scene": data, "code": code_digest(RENDER_ROOTS, packages, RENDER_EXCLUDE)}, sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 

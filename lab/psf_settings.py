@@ -68,7 +68,7 @@ def _combined(table: dict, scene, image) -> dict:
     input, rounded up to a multiple of 8 px; ``psf_resolution``: the smallest that holds both."""
     import numpy as np
     from .psf_tracing.models.combined import min_combined_resolution
-    from .runtime_passes import read_motion
+    from .motion import read_motion
 
     _from_camera(table, scene, "combined", {"aperture": "circle"})
     if "max_coc_px" not in table:

@@ -17,18 +17,9 @@ from runtime_cl.passes import get_pass, run_pass
 from runtime_cl.psf.fingerprint import check_header
 
 from .errors import UserError
+from .motion import read_motion
 
 TIMED_RUNS = 3
-
-
-def read_motion(image, path, model: str) -> np.ndarray:
-    """The labelled image's per-pixel motion (H, W, 2): channels ``motion.X``, ``motion.Y`` in pixels
-    over the shutter, X right, Y up (what a ``model`` database needs)."""
-    missing = [c for c in ("motion.X", "motion.Y") if c not in image.extra]
-    if missing:
-        raise UserError(f"{path}: channel(s) {missing} missing; a {model!r} database needs per-pixel motion "
-                        "(motion.X, motion.Y: pixels over the shutter, Y up); write them into the EXR")
-    return np.stack([image.extra["motion.X"], image.extra["motion.Y"]], axis=-1)
 
 
 def frame_of(image, source: str = "input", db=None, layered_input: bool = False,

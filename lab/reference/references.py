@@ -29,7 +29,7 @@ def _mitsuba(scene, image):
 def _motion(scene, image):
     """Sub-frames over the shutter through the scene camera's own sensor, one per pixel of the
     input's longest motion vector (:mod:`lab.reference.motion`)."""
-    from ..runtime_passes import read_motion
+    from ..motion import read_motion
     from .motion import MotionJob, subframes_for
 
     flow = read_motion(image, scene.source, "combined")

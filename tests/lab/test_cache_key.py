@@ -84,3 +84,18 @@ def test_editing_the_iris_changes_the_polygon_reference_key(tree):
     assert "lab.optics.iris" in module_files(RENDER_ROOTS, packages)
     _edit(packages["lab"] / "optics" / "iris.py")
     assert render_key(scene, packages) != before
+
+
+def test_editing_the_runtime_or_the_tracer_keeps_the_render_key(tree):
+    """RENDER_EXCLUDE: the runtime's passes and the PSF tracer do not draw references or inputs
+    (tests/lab/reference/test_render_key_exclusions.py shows that none of their code runs), so
+    editing them keeps cached renders; editing what renders (the reference's CoC) does not."""
+    packages = tree("runtime")
+    scene = load_scene(SCENES / "tiny.toml")
+    before = render_key(scene, packages)
+    for rel in ("runtime_cl/passes/spreadlets.py", "runtime_cl/layered/tracer.py", "runtime_cl/spreadlets/renderer.py",
+                "lab/psf_tracing/models/volume.py", "lab/psf_tracing/tracer.py", "lab/runtime_passes.py"):
+        _edit(packages[rel.partition("/")[0]].parent / rel)
+    assert render_key(scene, packages) == before
+    _edit(packages["lab"] / "reference" / "coc.py")
+    assert render_key(scene, packages) != before

@@ -39,8 +39,9 @@ def dense_crop(psf: np.ndarray) -> np.ndarray:
 def landed_rays(traced):
     """The hit count behind each channel of a traced PSF (one int if monochrome), for the
     sparsifier's noise model: each channel is a histogram normalised by the hits it received,
-    which excludes vignetted rays and rays that picked another channel."""
-    landed = [int(n) for n in traced.counts.sum(axis=(0, 1))]
+    which excludes vignetted rays and rays that picked another channel; with weighted hits (a
+    volume's roulette), the count of equal-weight hits as noisy (``effective_rays``)."""
+    landed = [int(n) for n in np.floor(traced.effective_rays)]
     return landed[0] if len(landed) == 1 else landed
 
 

@@ -28,7 +28,7 @@ from typing import Callable, Sequence
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array2f, Bool, Float, Int32, PCG32, UInt32, UInt64
+from drjit.llvm import Array2f, Bool, Float, Float64, Int32, PCG32, UInt32, UInt64
 
 from lab.errors import UserError
 from lab.llvm_check import problem as llvm_problem
@@ -86,6 +86,10 @@ class TraceResult:
         Rays blocked inside the optics (vignetting), each counted once.
     seconds : float
         Wall time of the launches, synchronised.
+    sq_weights : ndarray (C,) float64 or None
+        Per channel, the sum of the squared weights of the rays counted in the image (None for a
+        model without weights: each ray weighs 1). With weights w, a channel's histogram has the
+        noise of (sum w)^2 / sum w^2 equal-weight rays (:attr:`effective_rays`).
     """
 
     psf: np.ndarray
@@ -94,6 +98,14 @@ class TraceResult:
     n_outside: int
     n_blocked: int
     seconds: float
+    sq_weights: np.ndarray | None = None
+
+    @property
+    def effective_rays(self) -> np.ndarray:
+        """Per channel: the number of equal-weight rays whose histogram is as noisy as this one's,
+        (sum w)^2 / sum w^2 over the rays in the image (the landed count when every weight is 1)."""
+        landed = self.counts.sum(axis=(0, 1)).astype(np.float64)
+        return landed if self.sq_weights is None else landed * landed / self.sq_weights
 
     @property
     def mrays_per_second(self) -> float:
@@ -158,7 +170,9 @@ def lane_rng(n: int, seed: int, stream: int = 0, launch: int = 0) -> PCG32:
 
 def _launch(rays: RayFunction, lo, width, resolution: int, channels: int, n: int,
             rng: PCG32) -> np.ndarray:
-    """Trace ``n`` rays; return UInt32 counts of length R*R*C + 2 (outside, then blocked)."""
+    """Trace ``n`` rays; return UInt32 counts of length R*R*C + 2 (outside, then blocked), and
+    per channel the sum of the squared weights of the rays counted in the image (None without
+    weights)."""
     coords = [dr.opaque(Float, a) + dr.opaque(Float, w) * rng.next_float32() for a, w in zip(lo, width)]
     hits = rays(coords, rng)
     c = resolution // 2
@@ -183,7 +197,15 @@ def _launch(rays: RayFunction, lo, width, resolution: int, channels: int, n: int
     # Expand: per-thread copies of the histogram, so a delta PSF (all rays in one pixel) does
     # not serialise on one atomic.
     dr.scatter_reduce(dr.ReduceOp.Add, target, value, index, mode=dr.ReduceMode.Expand)
-    return target.numpy()
+    if hits.weight is None:
+        return target.numpy(), None
+    # squared weights of the rays in the image, per channel (Float64: w^2 sums overflow UInt32)
+    w = Float64(hits.weight)
+    sq = dr.zeros(Float64, channels + 1)
+    landed = index < outside_bin
+    ch = UInt32(0) if hits.channel is None else hits.channel
+    dr.scatter_reduce(dr.ReduceOp.Add, sq, w * w, dr.select(landed, ch, channels), mode=dr.ReduceMode.Expand)
+    return target.numpy(), sq.numpy()[:channels]
 
 
 def trace_psf(rays: RayFunction, lo: Sequence[float], hi: Sequence[float], resolution: int,
@@ -229,10 +251,14 @@ def trace_psf(rays: RayFunction, lo: Sequence[float], hi: Sequence[float], resol
     width = [b - a for a, b in zip(lo, hi)]
 
     total = np.zeros(resolution * resolution * channels + 2, dtype=np.int64)
+    sq_weights = None
     start = time.perf_counter()
     for launch, first in enumerate(range(0, n_rays, rays_per_launch)):
         n = min(rays_per_launch, n_rays - first)
-        total += _launch(rays, lo, width, resolution, channels, n, lane_rng(n, seed, stream, launch))
+        counts, sq = _launch(rays, lo, width, resolution, channels, n, lane_rng(n, seed, stream, launch))
+        total += counts
+        if sq is not None:
+            sq_weights = sq if sq_weights is None else sq_weights + sq
     dr.sync_thread()
     seconds = time.perf_counter() - start
 
@@ -244,4 +270,4 @@ def trace_psf(rays: RayFunction, lo: Sequence[float], hi: Sequence[float], resol
         raise UserError(f"no ray reached the PSF image in channel(s) {empty} ({n_rays} rays, "
                         f"{n_outside} outside): enlarge the PSF resolution or check the optics")
     psf = (counts / landed.astype(np.float64)).astype(np.float32)
-    return TraceResult(psf, counts, n_rays, n_outside, n_blocked, seconds)
+    return TraceResult(psf, counts, n_rays, n_outside, n_blocked, seconds, sq_weights)

@@ -16,31 +16,43 @@ histogram of f (w . e1, w . e2) / (w . n) over all crossings is the PSF, its cos
 included, with no weights. Unscattered photons (a fraction exp(-sigma_t d)) land in the centre
 pixel; scattered ones form the halo.
 
-Colour: ray i is in channel i mod 3 (a third of the rays each, exactly). Only absorption depends
-on the channel, and it is drawn once per photon: with u uniform, the photon survives its j-th real
-collision iff u <= albedo^j, i.e. j <= ln u / ln albedo -- the albedo coin at every collision
-(P(j survived) = albedo^j, each collision independently), at one random number per photon.
+Colour: ray i is in channel i mod 3 (a third of the rays each, exactly), and rays 3i, 3i + 1,
+3i + 2 share one photon path (as hero-wavelength sampling shares a path among wavelengths): only
+absorption depends on the channel, and it is drawn once per path: with u uniform, channel c
+survives its j-th real collision iff u <= albedo_c^j, i.e. j <= ln u / ln albedo_c -- the albedo
+coin at every collision (P(j survived) = albedo_c^j, each collision independently), at one random
+number per path. Each channel still gets n / 3 independent photons, so its PSF has the noise it
+had with a path per ray; the channels' noise is correlated (the halo's grain is grey), and a path
+costs about as much as one photon did.
 
 A photon may cross the sphere more than once (out, back in, out). Each ray reports one of its
-crossings that land in the image, chosen uniformly (reservoir sampling), with the integer
-multiplicity k = how many there were (:class:`RayHits` ``weight``), so the expected histogram
-counts every crossing. The image here excludes a ``PSF_MARGIN_PX`` border (the sparsifier needs
-it empty): the halo is cut off there. Rays whose crossings all miss it land outside; rays
-absorbed or lost before crossing are blocked. Photons are dropped once farther than
-d + ``escape_mfp`` mean free paths from the light, or after ``max_collisions`` collisions (a
-truncation whose effect the tests bound).
+crossings that land in the image, chosen in proportion to their weights (weighted reservoir
+sampling), with the integer weight W = the sum of the weights (:class:`RayHits` ``weight``), so
+the expected histogram counts every crossing. A crossing weighs 2^k after k roulette shells:
+a path first passing the radius d + (2^k - 1) ``roulette_mfp`` mean free paths survives with
+probability 1/2 (whether it does is drawn at emission: :func:`_emitted`), so the expectation is
+unchanged while walks far from the sphere end early; the shells spread out geometrically because
+a path's chance to come back falls with its distance, which keeps the heavy weights rare (with
+evenly spaced shells, outliers of weight up to 2^12 doubled the spread of a PSF's centroid). The image here excludes a
+``PSF_MARGIN_PX`` border (the sparsifier needs it empty): the halo is cut off there. Rays whose
+crossings all miss it land outside; rays absorbed or lost before crossing are blocked. Photons
+are dropped once farther than d + ``escape_mfp`` mean free paths from the light, or after
+``max_collisions`` collisions (a truncation whose effect the tests bound).
 
-Speed (``splatlab bench precompute``; ~3x the straightforward tracer, which the tests keep as
-their reference): photons run on persistent SIMD lanes (:func:`lab.psf_tracing.walks.run_walks`),
+Speed (``splatlab bench precompute``; the tests keep the straightforward tracer as their
+reference): photon paths run on persistent SIMD lanes (:func:`lab.psf_tracing.walks.run_walks`),
 so a packet of 16 lanes does not wait for its longest walk (a packet of 16 photons takes ~2.9x
-the mean number of collisions); every photon's start (direction, absorption, generator) is
-computed up front for all rays; the projection onto the camera runs only for crossings inside the
-image's cone (a branch packets skip; :func:`_cone`); absorption costs one random number per
-photon, not one per collision; the numbers come from a 32-bit-lane generator
-(:mod:`lab.psf_tracing.rng32`), and flights, azimuths and scattered directions use the cheaper
-forms of :mod:`lab.optics.media` (:func:`~lab.optics.media.log_unit`,
-:func:`~lab.optics.media.unit_circle`). Each photon's random numbers depend only on its ray, so
-the PSF is bitwise the same however photons are spread over lanes.
+the mean number of collisions); a lane computes a path's start (direction, absorption, roulette,
+generator) when it takes it, from the generator keyed by the path's first ray (computed up front
+for all rays); the projection onto the camera runs only for crossings inside the image's cone (a
+branch packets skip; :func:`_cone`); absorption costs one random number per path, not one per
+collision; the numbers come from a 32-bit-lane generator (:mod:`lab.psf_tracing.rng32`), and
+flights, azimuths and scattered directions use the cheaper forms of :mod:`lab.optics.media`
+(:func:`~lab.optics.media.log_unit`, :func:`~lab.optics.media.unit_circle`). Each path's random
+numbers depend only on its rays, so the PSF is bitwise the same however paths are spread over
+lanes. At the benchmark's 5 m, a path took ~33 collisions without roulette and ~10 with it;
+shared paths halve the time per ray and the roulette takes off another ~40 % at ~6 % more
+variance per ray (measured against a 2^25-ray PSF: 3x the PSF accuracy per second in all).
 
 The traced PSF is normalised per channel inside the image (the tracer's contract). The energy
 that reaches the image relative to the point without the medium, per channel, is
@@ -58,7 +70,7 @@ from functools import cached_property
 
 import drjit as dr
 import numpy as np
-from drjit.llvm import Array2f, Array3f, Bool, Float, Int32, UInt32, UInt64
+from drjit.llvm import Array2f, Array3f, Array3u, Bool, Float, Int32, UInt32, UInt64
 
 from lab.optics.media import frame, hg_sample, log_unit, scatter_direction, unit_circle
 from lab.psf_tracing.models.base import PSFModel, register_model
@@ -76,21 +88,26 @@ __all__ = ["Volume", "VolumeConfig"]
 WALK_LANES = 2 ** 15
 _PIXEL_BIAS = 1 << 15                 # a pixel offset k is stored as k + bias in 16 bits
 _NEVER = -1e30                        # 1 / ln(albedo) for albedo 1: no collision absorbs
+_ROULETTE_SHELLS = 12                 # roulette shells at most: weights stay <= 2^12 (UInt32 bins)
 
 
 class _Photon:
-    """The state of one photon's walk (a Dr.Jit struct: loops and branches carry it field by field).
+    """The state of one photon path's walk, shared by its three channels (a Dr.Jit struct: loops
+    and branches carry it field by field).
 
     ``p``, ``w``: position (m) and unit direction; ``dist``: the camera sphere's radius d;
-    ``left``: real collisions the photon still survives (it ends at the next one when 0; without
-    null collisions also the collisions left before ``max_collisions``); ``alive``: the walk goes
-    on; ``count``: crossings in the image k, shifted left by one, or-ed with 1 once the photon has
-    crossed the sphere at all; ``pixel``: the reservoir's crossing (packed); ``rng``: its
-    generator. Few fields: each costs blends and spills every step.
+    ``lnu``: ln u of its absorption draw (channel c survives S_c = floor(lnu / ln albedo_c) real
+    collisions); ``j``: real collisions so far; ``alive``: the walk goes on; ``count`` (per
+    channel): the summed weight W of the channel's crossings in the image, shifted left by one,
+    or-ed with 1 once it has crossed the sphere at all; ``pixel`` (per channel): the reservoir's
+    crossing (packed); ``level``: roulette shells passed (crossings weigh 2^level) in the low byte,
+    the shell the path dies at in the next (drawn at emission); ``rng``: its generator. Few
+    fields: each costs blends and spills every step.
     """
 
-    DRJIT_STRUCT = {"p": Array3f, "w": Array3f, "dist": Float, "left": UInt32, "alive": Bool,
-                    "count": UInt32, "pixel": UInt32, "rng": Xoroshiro64}
+    DRJIT_STRUCT = {"p": Array3f, "w": Array3f, "dist": Float, "lnu": Float, "j": UInt32,
+                    "alive": Bool, "count": Array3u, "pixel": Array3u, "level": UInt32,
+                    "rng": Xoroshiro64}
 
     def __init__(self, **fields):
         for name, value in fields.items():
@@ -104,34 +121,46 @@ class _NullPhoton(_Photon):
 
 
 class _Emitted:
-    """A photon as the light emits it: direction ``w``, ``left`` (real collisions it survives) and
-    its generator ``rng`` after those draws (a Dr.Jit struct)."""
+    """A photon path as the light emits it: direction ``w``, ``lnu`` (its absorption draw),
+    ``level`` (:class:`_Photon`'s: 0 shells passed, the roulette shell it dies at) and its
+    generator ``rng`` after those draws (a Dr.Jit struct)."""
 
-    DRJIT_STRUCT = {"w": Array3f, "left": UInt32, "rng": Xoroshiro64}
+    DRJIT_STRUCT = {"w": Array3f, "lnu": Float, "level": UInt32, "rng": Xoroshiro64}
 
-    def __init__(self, w=None, left=None, rng=None):
-        self.w, self.left, self.rng = w, left, rng
+    def __init__(self, w=None, lnu=None, level=None, rng=None):
+        self.w, self.lnu, self.level, self.rng = w, lnu, level, rng
 
 
-def _emitted(rng, c: VolumeConfig) -> _Emitted:
-    """Per ray: its photon's start, from a generator keyed by the tracer's per-ray ``rng``.
+def _emitted(walk_rng: Xoroshiro64) -> _Emitted:
+    """A photon path's start from its generator (advanced past these draws).
 
-    The channel is ray mod 3. Absorption is drawn once: the photon survives S = floor(ln u /
-    ln albedo) real collisions (see the module docstring); without null collisions S is capped at
-    max_collisions - 1, so one count-down also ends the walk there.
+    Absorption is drawn once for all channels: ln u, u uniform in (0, 1); channel c survives
+    S_c = floor(ln u / ln albedo_c) real collisions (see the module docstring and
+    :func:`_survives`). So is the roulette: the path dies at shell L + 1 with L the trailing zero
+    bits of a uniform 32-bit number, P(L >= k) = 2^-k -- a fair coin at every shell, drawn at
+    once (L >= _ROULETTE_SHELLS: it never dies).
     """
-    n = dr.width(rng.state)
-    walk_rng = Xoroshiro64.from_pcg32(rng)
-    ch = dr.arange(UInt32, n) % 3
-    inv = [dr.opaque(Float, _inv_log(a)) for a in c.albedo]
-    inv = dr.select(ch == 0, inv[0], dr.select(ch == 1, inv[1], inv[2]))
-    cap = dr.opaque(Float, float(c.max_collisions if c.majorant_ratio != 1.0 else c.max_collisions - 1))
-    u = (Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23           # in (0, 1), never 0 or 1
-    left = UInt32(dr.minimum(log_unit(u) * inv, cap))
+    lnu = log_unit((Float(walk_rng.next_uint32() >> 9) + 0.5) * 2.0 ** -23)   # u never 0 or 1
     z = 1.0 - 2.0 * walk_rng.next_float32()
     cp, sp = unit_circle(walk_rng.next_float32())
     r = dr.sqrt(dr.maximum(1.0 - z * z, 0.0))
-    return _Emitted(Array3f(r * cp, r * sp, z), left, walk_rng)
+    dies = dr.minimum(dr.tzcnt(walk_rng.next_uint32()), _ROULETTE_SHELLS) + 1
+    return _Emitted(Array3f(r * cp, r * sp, z), lnu, dies << 8, walk_rng)
+
+
+def _survives(lnu: Float, j: UInt32, inv_log: Float, cap: UInt32) -> Bool:
+    """Whether a channel with 1 / ln(albedo) = ``inv_log`` is still carried on flight ``j``
+    (after j real collisions): j <= S_c = min(floor(lnu * inv_log), cap), P(S_c >= j) =
+    albedo^j -- an independent albedo coin at every collision, per channel."""
+    return (Float(j) <= lnu * inv_log) & (j <= cap)
+
+
+def collisions_survived(lnu: Float, channel: UInt32, c: VolumeConfig) -> UInt32:
+    """S = min(floor(lnu / ln albedo), max_collisions - 1) of each photon's channel (a model that
+    traces one channel per photon, like :mod:`~lab.psf_tracing.models.volume_box`)."""
+    inv = [dr.opaque(Float, _inv_log(a)) for a in c.albedo]
+    inv = dr.select(channel == 0, inv[0], dr.select(channel == 1, inv[1], inv[2]))
+    return UInt32(dr.minimum(lnu * inv, float(c.max_collisions - 1)))
 
 
 def _hashed_uniform(ray: UInt32, k: UInt32, key: UInt32) -> Float:
@@ -188,11 +217,12 @@ class Volume(PSFModel):
                                       ("distance_m",))
 
     def rays(self, coords: list, rng) -> RayHits:
-        """Per ray: a photon from the light in channel ray mod 3, tracked until absorbed or lost;
-        one of its camera crossings (see the module docstring)."""
+        """Per ray: a photon of channel ray mod 3, tracked until absorbed or lost; one of its
+        camera crossings (see the module docstring). Rays 3i, 3i + 1, 3i + 2 share one path."""
         c = self.config
         o = dr.opaque
         n = dr.width(coords[0])
+        paths = (n + 2) // 3
         # per ray: k << 1 | crossed in the low word, the reservoir's pixel (packed) in the high one
         # (one 64-bit scatter per ended photon costs half of two 32-bit ones)
         results = dr.zeros(UInt64, n)
@@ -202,6 +232,11 @@ class Volume(PSFModel):
         g = o(Float, c.g)
         fpx = o(Float, c.focal_length_px)
         null_collisions = c.majorant_ratio != 1.0
+        inv_log = [o(Float, _inv_log(a)) for a in c.albedo]
+        # without null collisions the last real collision a path survives is max_collisions - 1,
+        # so counting real collisions also ends the walk there
+        cap = o(UInt32, c.max_collisions if null_collisions else c.max_collisions - 1)
+        inv_max = o(Float, min(_inv_log(a) for a in c.albedo))         # the longest-lived channel
         # pixels the tracer bins at k = floor(offset + 1/2), kept to [lo, hi]: the image less a
         # PSF_MARGIN_PX border, which the sparsifier needs empty (crossings there count as outside)
         half = c.psf_resolution // 2
@@ -212,27 +247,34 @@ class Volume(PSFModel):
         escape = o(Float, c.escape_mfp / c.medium_density)
         lo, hi = o(Float, lo), o(Float, hi)
         inv_scale, hole = o(Float, 1.0 / scale), o(Float, hole)
-        # every photon's start, computed for all rays at once (all lanes busy) and gathered by a
-        # lane when it takes the photon: cheaper than computing it there for the whole packet
-        first = _emitted(rng, c)
+        roulette = c.roulette_mfp > 0.0
+        shell_step = o(Float, c.roulette_mfp / c.medium_density)
+        # path i draws from the generator of ray 3i, computed here for all rays; its start is
+        # computed by the lane that takes it
+        gens = Xoroshiro64.from_pcg32(rng)
         dist_all = coords[0]
-        dr.eval(first, dist_all)
-        key = dr.gather(UInt32, first.rng.s1, UInt32(0))          # this launch's reservoir hash key
+        dr.eval(gens, dist_all)
+        key = dr.gather(UInt32, gens.s1, UInt32(0))               # this launch's reservoir hash key
         dr.make_opaque(key)
 
-        def start(ray, valid):
-            m = dr.width(ray)
-            f = dr.gather(_Emitted, first, ray, valid)
+        def start(path, valid):
+            m = dr.width(path)
+            f = _emitted(dr.gather(Xoroshiro64, gens, 3 * path, valid))
             photon = (_NullPhoton if null_collisions else _Photon)(
-                p=dr.zeros(Array3f, m), w=f.w, dist=dr.gather(Float, dist_all, ray, valid), left=f.left,
-                alive=dr.full(Bool, True, m), count=dr.zeros(UInt32, m), pixel=dr.zeros(UInt32, m), rng=f.rng)
+                p=dr.zeros(Array3f, m), w=f.w, dist=dr.gather(Float, dist_all, 3 * path, valid),
+                lnu=f.lnu, j=dr.zeros(UInt32, m), alive=dr.full(Bool, True, m),
+                count=dr.zeros(Array3u, m), pixel=dr.zeros(Array3u, m), level=f.level, rng=f.rng)
             if null_collisions:
                 photon.steps = dr.opaque(UInt32, c.max_collisions - 1) + dr.zeros(UInt32, m)
             return (photon,)
 
-        def project(ray, ph, t):
+        def carried(ph):
+            """Per channel: whether it is still carried on this flight."""
+            return [ph.alive & _survives(ph.lnu, ph.j, inv, cap) for inv in inv_log]
+
+        def project(path, ph, t, live):
             """Where the crossing at p + t w lands: a pinhole camera there looking at the light;
-            the reservoir keeps it with probability 1/k."""
+            each channel's reservoir keeps it with probability (its weight) / (the weights so far)."""
             x = dr.fma(ph.w, t, ph.p)
             nrm = dr.select(ph.dist > 1e-6, x * dr.rsqrt(dr.squared_norm(x)), ph.w)
             e1, e2 = frame(nrm)
@@ -246,14 +288,17 @@ class Volume(PSFModel):
                 kx, ky = dr.floor(dr.fma(ix, inv_scale, 0.5)), dr.floor(dr.fma(iy, inv_scale, 0.5))
                 in_hole = (dr.abs(dr.floor(ix + 0.5)) <= hole) & (dr.abs(dr.floor(iy + 0.5)) <= hole)
                 seen = (kx >= lo) & (kx <= hi) & (ky >= lo) & (ky <= hi) & ~in_hole
-            ph.count = dr.select(seen, ph.count + 2, ph.count)
-            k = ph.count >> 1
-            take = seen & (_hashed_uniform(ray, k, key) * Float(k) < 1.0)
+            weight = UInt32(1) << (ph.level & 0xFF)
             packed = UInt32(Int32(kx) + _PIXEL_BIAS) | (UInt32(Int32(ky) + _PIXEL_BIAS) << 16)
-            ph.pixel = dr.select(take, packed, ph.pixel)
+            for ch in range(3):
+                seen_c = seen & live[ch]
+                ph.count[ch] = dr.select(seen_c, ph.count[ch] + (weight << 1), ph.count[ch])
+                total = ph.count[ch] >> 1
+                u = _hashed_uniform(3 * path + ch, total, key)
+                ph.pixel[ch] = dr.select(seen_c & (u * Float(total) < Float(weight)), packed, ph.pixel[ch])
             return ph
 
-        def step(ray, ph):
+        def step(path, ph):
             s = -log_unit(1.0 - ph.rng.next_float32()) * inv_sbar
             # outward crossing of |x| = d on the flight [p, p + s w]: the larger root t+
             b = dr.dot(ph.p, ph.w)
@@ -263,27 +308,40 @@ class Volume(PSFModel):
             cross = ph.alive & (disc >= 0) & (t >= 0) & (t <= s)
             reach = ph.dist + escape
             cone = dr.select(ph.dist <= near_fraction * reach, 0.0, cos_lo2 * d2)
-            ph = dr.if_stmt((ray, ph, t), cross & (disc >= cone), project, lambda ray, ph, t: ph)
-            ph.count = ph.count | UInt32(cross)
+            live = carried(ph)
+            ph = dr.if_stmt((path, ph, t, live), cross & (disc >= cone), project,
+                            lambda path, ph, t, live: ph)
+            for ch in range(3):
+                ph.count[ch] = ph.count[ch] | UInt32(cross & live[ch])
             ph.p = dr.fma(ph.w, s, ph.p)
+            # the path goes on while its longest-lived channel survives this collision
             if null_collisions:
                 real = ph.rng.next_float32() < real_p
-                go_on = (~real | (ph.left > 0)) & (ph.steps > 0)
-                ph.left = dr.select(real, ph.left - 1, ph.left)
+                go_on = (~real | _survives(ph.lnu, ph.j + 1, inv_max, cap)) & (ph.steps > 0)
+                ph.j = dr.select(real, ph.j + 1, ph.j)
                 ph.steps = ph.steps - 1
             else:
-                go_on = ph.left > 0
-                ph.left = ph.left - 1
+                go_on = _survives(ph.lnu, ph.j + 1, inv_max, cap)
+                ph.j = ph.j + 1
             mu, sin = hg_sample(g, ph.rng.next_float32())
             w = scatter_direction(ph.w, mu, sin, ph.rng.next_float32())
             ph.w = dr.select(real, w, ph.w) if null_collisions else w
-            ph.alive &= go_on & (dr.squared_norm(ph.p) <= reach * reach)
+            r2 = dr.squared_norm(ph.p)
+            if roulette:
+                passed = ph.level & 0xFF
+                shell = dr.fma(shell_step, Float((UInt32(2) << passed) - 1), ph.dist)
+                past = ph.alive & (passed < _ROULETTE_SHELLS) & (r2 > shell * shell)
+                ph.level = dr.select(past, ph.level + 1, ph.level)
+                go_on &= ~(past & ((ph.level & 0xFF) == (ph.level >> 8)))
+            ph.alive &= go_on & (r2 <= reach * reach)
             return (ph,)
 
-        def store(ray, ph):
-            dr.scatter(results, UInt64(ph.count) | (UInt64(ph.pixel) << 32), ray)
+        def store(path, ph):
+            for ch in range(3):
+                ray = 3 * path + ch
+                dr.scatter(results, UInt64(ph.count[ch]) | (UInt64(ph.pixel[ch]) << 32), ray, ray < n)
 
-        run_walks(n, min(n, WALK_LANES), start, step, lambda ph: ph.alive, store)
+        run_walks(paths, min(paths, WALK_LANES), start, step, lambda ph: ph.alive, store)
         dr.eval(results)
         counts, pixels = UInt32(results & 0xFFFFFFFF), UInt32(results >> 32)
         k = counts >> 1

@@ -47,7 +47,7 @@ from lab.optics.media import frame, hg_sample, log_unit, scatter_direction
 from lab.psf_tracing.models.base import register_model
 from lab.psf_tracing.models.common import check_number
 from lab.psf_tracing.models.simple_lens import PSF_MARGIN_PX
-from lab.psf_tracing.models.volume import WALK_LANES, Volume, _emitted
+from lab.psf_tracing.models.volume import WALK_LANES, Volume, _emitted, collisions_survived
 from lab.psf_tracing.models.volume_config import VolumeConfig
 from lab.psf_tracing.rng32 import Xoroshiro64
 from lab.psf_tracing.space import NestedGrid
@@ -87,7 +87,7 @@ class VolumeBoxConfig(VolumeConfig):
     def __post_init__(self):
         super().__post_init__()
         defaults = VolumeConfig()
-        for key in ("min_distance_m", "max_distance_m", "escape_mfp", "majorant_ratio"):
+        for key in ("min_distance_m", "max_distance_m", "escape_mfp", "majorant_ratio", "roulette_mfp"):
             if getattr(self, key) != getattr(defaults, key):
                 raise UserError(f"{key} = {getattr(self, key)!r} does not apply to volume_box (its coordinates "
                                 "are max_camera_gap_m, max_medium_length_m, max_light_gap_m; the box's medium is "
@@ -148,18 +148,20 @@ class VolumeBox(Volume):
         fpx = o(Float, c.focal_length_px)
         half = c.psf_resolution // 2
         lo, hi = o(Float, PSF_MARGIN_PX - half), o(Float, c.psf_resolution - 1 - half - PSF_MARGIN_PX)
-        first = _emitted(rng, c)
+        first = _emitted(Xoroshiro64.from_pcg32(rng))
+        survived = collisions_survived(first.lnu, dr.arange(UInt32, n) % 3, c)   # channel ray mod 3
         gap_cam, length, gap_light = coords
-        dr.eval(first, gap_cam, length, gap_light)
+        dr.eval(first, survived, gap_cam, length, gap_light)
 
         def start(ray, valid):
             m = dr.width(ray)
             f = dr.gather(type(first), first, ray, valid)
+            left = dr.gather(UInt32, survived, ray, valid)
             r0 = dr.gather(Float, gap_light, ray, valid)
             r1 = r0 + dr.gather(Float, length, ray, valid)
             d = r1 + dr.gather(Float, gap_cam, ray, valid)
             # clear air from the light to the shell: the photon enters it at radius r0
-            return (_ShellPhoton(p=f.w * r0, w=f.w, r0=r0, r1=r1, d=d, left=f.left, alive=dr.full(Bool, True, m),
+            return (_ShellPhoton(p=f.w * r0, w=f.w, r0=r0, r1=r1, d=d, left=left, alive=dr.full(Bool, True, m),
                                  scattered=dr.full(Bool, False, m), hit=dr.full(Bool, False, m),
                                  pixel=dr.zeros(UInt32, m), rng=f.rng),)
 

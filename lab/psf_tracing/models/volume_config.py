@@ -34,6 +34,10 @@ class VolumeConfig:
         A photon is dropped once farther than d + escape_mfp / sigma_t from the light (> 0).
     max_collisions : int, default 1000
         Tentative collisions per photon at most (>= 1).
+    roulette_mfp : float, default 0.5
+        Russian roulette away from the camera sphere: a photon path that first passes the radius
+        d + (2^k - 1) * roulette_mfp / sigma_t (k = 1 .. 12) survives with probability 1/2 and
+        counts twice from then on (unbiased; 0: off). It ends walks far from the camera early.
     focal_length_mm, sensor_width_mm : float, default 50, 36
         The camera's pinhole (focal length and sensor width in mm).
     width_px : int, default 1024
@@ -64,6 +68,7 @@ class VolumeConfig:
     majorant_ratio: float = 1.0
     escape_mfp: float = 10.0
     max_collisions: int = 1000
+    roulette_mfp: float = 0.5
     focal_length_mm: float = 50.0
     sensor_width_mm: float = 36.0
     width_px: int = 1024
@@ -99,6 +104,7 @@ class VolumeConfig:
                      "rays_per_launch"):
             check_number(name, getattr(self, name), integer=True)
         check_number("seed", self.seed, integer=True, zero_ok=True)
+        check_number("roulette_mfp", self.roulette_mfp, zero_ok=True)
         if self.psf_resolution > 65535:
             raise UserError(f"psf_resolution = {self.psf_resolution}: at most 65535 (pixel offsets are "
                             "stored in 16 bits)")

@@ -23,6 +23,29 @@ def test_weights_multiply_counts_and_blocked_rays_count_once():
     assert r.psf[2, 3, 0] == pytest.approx(0.9 / 1.3, abs=0.005) and r.psf.sum() == pytest.approx(1.0)
 
 
+def test_squared_weights_give_the_histograms_effective_ray_count():
+    """sq_weights sums w^2 of the rays counted in the image, per channel (blocked and outside rays
+    left out), so effective_rays = (sum w)^2 / sum w^2: exact for these counts."""
+    def rays(coords, rng):
+        u = rng.next_float32()
+        ch = UInt32(dr.select(u < 0.5, 0, 1))
+        weight = UInt32(dr.select(u < 0.25, 1, dr.select(u < 0.5, 4, dr.select(u < 0.9, 2, 8))))
+        col = dr.select(u < 0.95, 0.0, 100.0)                           # channel 1's weight-8 rays: half outside
+        return RayHits(Array2f(col, 0.0), active=u > 0.05, channel=ch, weight=weight)
+    n = 2 ** 16
+    r = trace_psf(rays, [0.0], [0.0], 3, n, seed=4, channels=2)
+    u = lane_rng(n, 4)
+    u.next_float32()                                                    # the PSF coordinate
+    u = u.next_float32().numpy()
+    w = np.where(u < 0.25, 1, np.where(u < 0.5, 4, np.where(u < 0.9, 2, 8))).astype(np.float64)
+    landed = (u > 0.05) & (u < 0.95)
+    for ch, sel in enumerate((u < 0.5, u >= 0.5)):
+        m = landed & sel
+        assert r.counts[..., ch].sum() == w[m].sum() and r.sq_weights[ch] == (w[m] ** 2).sum()
+        assert r.effective_rays[ch] == pytest.approx(w[m].sum() ** 2 / (w[m] ** 2).sum(), rel=1e-12)
+    assert r.effective_rays[0] < r.counts[..., 0].sum()                  # unequal weights: fewer
+
+
 def test_without_weights_the_balance_is_exact():
     def rays(coords, rng):
         u = rng.next_float32()

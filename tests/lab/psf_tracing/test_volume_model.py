@@ -187,6 +187,24 @@ def test_the_fast_tracer_matches_the_plain_reference(table, distance):
     assert np.all(a[1:].sum(axis=0) > 0.05 * a.sum(axis=0))       # a real halo was compared
 
 
+@pytest.mark.parametrize("roulette_mfp", [0.5, 0.02])
+def test_the_roulette_keeps_the_expected_psf(roulette_mfp):
+    """Russian roulette changes the weights, not the expectation: per ring and channel, the mean
+    over 8 seeds with roulette (the default 0.5 mean free paths, and 0.02, where most paths pass
+    several shells and weights reach 2^12; at 4 mean free paths with isotropic scattering many
+    crossings come after a path has left the sphere and passed shells) agrees with the mean without it, within 5 standard
+    errors estimated from the seeds' own spread (heavy weights make the counts non-Poisson)."""
+    def rings(rm, seed):
+        m = Volume(VolumeConfig(roulette_mfp=rm, psf_resolution=129, medium_density=2.0, g=0.0))
+        return _rings(m.trace_box((2.0,), (2.0,), n_rays=3 * 2 ** 18, seed=seed).counts) / 2 ** 18
+    with_r = np.array([rings(roulette_mfp, s) for s in range(8)])
+    without = np.array([rings(0.0, 100 + s) for s in range(8)])
+    se = np.sqrt(with_r.var(axis=0, ddof=1) / 8 + without.var(axis=0, ddof=1) / 8)
+    diff = with_r.mean(axis=0) - without.mean(axis=0)
+    assert np.all(np.abs(diff) <= 5 * se + 1e-12), diff / se
+    assert np.all(without.mean(axis=0)[1:] > 0)                      # every ring has light
+
+
 def _same_trace(model, distance, n=2 ** 18, seed=4):
     return model.trace_box((distance,), (distance,), n_rays=n, seed=seed).counts
 
@@ -215,21 +233,48 @@ def test_the_psf_does_not_depend_on_how_photons_are_spread_over_lanes(monkeypatc
 
 
 @pytest.mark.parametrize("albedo", [0.9, 0.5])
-def test_one_absorption_draw_per_photon_is_an_albedo_coin_per_collision(albedo):
-    """The photon survives S real collisions, S = floor(ln u / ln albedo): P(S >= j) = albedo^j,
-    as with an independent coin at each collision. Chi-square of S against the geometric law
-    (bins with >= 5 expected photons, the tail pooled), p > 1e-4."""
+def test_one_absorption_draw_per_path_is_an_albedo_coin_per_collision(albedo):
+    """Channel c of a path survives S_c real collisions, S_c = floor(ln u / ln albedo_c): P(S >=
+    j) = albedo^j, as with an independent coin at each collision. Chi-square of S against the
+    geometric law (bins with >= 5 expected photons, the tail pooled), p > 1e-4; albedo 1 never
+    absorbs and albedo 0 at the first collision."""
     from scipy import stats
+    from drjit.llvm import Float, UInt32
+    from lab.psf_tracing.rng32 import Xoroshiro64
     c = VolumeConfig(albedo=(albedo, 1.0, 0.0))
-    n = 3 * 2 ** 18
-    first = volume._emitted(lane_rng(n, 8), c)
-    left = first.left.numpy().reshape(-1, 3)
-    assert np.all(left[:, 1] == c.max_collisions - 1) and np.all(left[:, 2] == 0)   # albedo 1 and 0
-    s, m = left[:, 0], n // 3
+    m = 2 ** 18
+    lnu = volume._emitted(Xoroshiro64.from_pcg32(lane_rng(m, 8))).lnu
+    cap = UInt32(c.max_collisions - 1)
+
+    def survived(inv):
+        """S_c: the float32 product floored and capped, checked against _survives at S and S + 1."""
+        prod = lnu.numpy() * np.float32(inv)
+        s = np.minimum(np.floor(prod), c.max_collisions - 1).astype(np.uint32)
+        assert np.all(volume._survives(lnu, UInt32(s), Float(inv), cap).numpy())
+        assert not np.any(volume._survives(lnu, UInt32(s + 1), Float(inv), cap).numpy())
+        return s
+    inv = [volume._inv_log(a) for a in c.albedo]
+    assert np.all(survived(inv[1]) == c.max_collisions - 1) and np.all(survived(inv[2]) == 0)
+    s = survived(inv[0])
     last = int(np.floor(np.log(5.0 / m) / np.log(albedo)))          # P(S = j) m >= ~5 up to here
     observed = np.append(np.bincount(s, minlength=last + 1)[:last], (s >= last).sum())
     expected = m * np.append((1 - albedo) * albedo ** np.arange(last), albedo ** last)
     assert stats.chisquare(observed, expected).pvalue > 1e-4
+
+
+def test_the_roulette_shell_a_path_dies_at_halves_with_every_shell():
+    """A path dies at roulette shell L + 1, P(L >= k) = 2^-k (a fair coin at each shell; L
+    capped at _ROULETTE_SHELLS: never dies). Chi-square over k = 0 .. 11 and the cap, p > 1e-4."""
+    from scipy import stats
+    from lab.psf_tracing.rng32 import Xoroshiro64
+    m = 2 ** 18
+    level = volume._emitted(Xoroshiro64.from_pcg32(lane_rng(m, 9))).level.numpy()
+    assert np.all(level & 0xFF == 0)                                  # no shell passed yet
+    dies = (level >> 8) - 1
+    cap = volume._ROULETTE_SHELLS
+    observed = np.bincount(dies, minlength=cap + 1)
+    expected = m * np.append(0.5 ** np.arange(1, cap + 1), 0.5 ** cap)      # all >= 5 at this m
+    assert dies.max() <= cap and stats.chisquare(observed, expected).pvalue > 1e-4
 
 
 def test_reservoir_numbers_are_uniform_and_independent_of_the_crossing_index():

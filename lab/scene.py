@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import re
 import tomllib
+from pathlib import Path
 from dataclasses import dataclass, field
 
 from runtime_cl.input_file import read_text
@@ -286,7 +287,40 @@ def load_scene(path) -> Scene:
         Missing file, bad TOML, or any validation error; the message names the file, the table
         and the key.
     """
-    return parse_scene(_read_toml(path), str(path))
+    return parse_scene(_extended(_read_toml(path), Path(path)), str(path))
+
+
+MAX_EXTENDS = 4   # scene files a chain of ``extends`` may go through (a cycle is refused)
+
+
+def _extended(data: dict, path: Path, depth: int = 0) -> dict:
+    """``data`` on top of the scene it names in ``[scene] extends`` (a file in the same folder),
+    recursively: tables merge key by key, every other value (arrays of tables such as
+    ``[[shapes]]`` included) replaces the base's. A variant of a scene (more samples, another
+    name) is then a few lines, not a copy."""
+    scene = data.get("scene")
+    base = scene.get("extends") if isinstance(scene, dict) else None
+    if base is None:
+        return data
+    if not (isinstance(base, str) and base.endswith(".toml") and Path(base).name == base):
+        raise UserError(f"{path} [scene] extends = {base!r}: give the file name of a scene in the same "
+                        'folder, e.g. extends = "demo.toml"')
+    if depth >= MAX_EXTENDS:
+        raise UserError(f"{path} [scene] extends = {base!r}: the chain of extended scenes is more than "
+                        f"{MAX_EXTENDS} files long (a cycle?); extend a scene that extends nothing")
+    base_path = path.parent / base
+    parent = _extended(_read_toml(base_path, "scene file (extended)", f"fix [scene] extends in {path}"),
+                       base_path, depth + 1)
+    child = dict(data, scene={k: v for k, v in scene.items() if k != "extends"})
+    return _merged(parent, child)
+
+
+def _merged(base: dict, over: dict) -> dict:
+    out = dict(base)
+    for key, value in over.items():
+        both = isinstance(value, dict) and isinstance(base.get(key), dict)
+        out[key] = _merged(base[key], value) if both else value
+    return out
 
 
 def load_camera(path) -> Camera:

@@ -19,10 +19,11 @@ from lab.paths import SCENES
 from lab.pipeline import load_scene_and_plan
 from lab.plan import make_plan
 from lab.psf_settings import check_tables
-from lab.scene import parse_scene
+from lab.scene import _extended, parse_scene
 
 SHIPPED = {p.name: p.read_bytes() for p in sorted(SCENES.glob("*.toml"))}
-PARSED = {name: tomllib.loads(data.decode()) for name, data in SHIPPED.items()}
+# [scene] extends resolved (a value fuzzer mutates the whole scene)
+PARSED = {name: _extended(tomllib.loads(data.decode()), SCENES / name) for name, data in SHIPPED.items()}
 
 VALUES = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True), st.integers(-2 ** 70, 2 ** 70), st.booleans(),

@@ -214,10 +214,12 @@ static hit_t trace_ray(global const float *height, global const float2 *nbuf, co
 
 // Per layer, the inverse depths any lens ray of pixel p can hit (LES10: one footprint bounds all
 // of a pixel's rays: at w they lie within S |w - 1/F| of p, the CoC, largest at an end of the
-// segment); wa > wb where none can.
-static void pixel_ranges(global const float2 *nbuf, global const float2 *range, float2 p, float coc_scale,
-                         float inv_focus, float wmax, float thick, float *wa, float *wb)
+// segment); wa > wb where none can. Returns the largest wb of the layers behind the first (-1: none
+// can be hit): a layer-0 hit at w >= it is the ray's hit (render's first-cell test).
+static float pixel_ranges(global const float2 *nbuf, global const float2 *range, float2 p, float coc_scale,
+                          float inv_focus, float wmax, float thick, float *wa, float *wb)
 {
+    float front = -1.0f;   // the nearest inverse depth a layer behind the first can be hit at
     for (int k = 0; k < NL; ++k) {
         float2 r = range[k];
         float lo = fmax(0.0f, r.x - thick), hi = fmin(wmax, r.y);
@@ -231,7 +233,10 @@ static void pixel_ranges(global const float2 *nbuf, global const float2 *range, 
         }
         wa[k] = lo;
         wb[k] = hi;
+        if (k > 0 && lo <= hi)
+            front = fmax(front, hi);
     }
+    return front;
 }
 
 // The colour of the nearest layer that holds something at pixel (x, y); *found: one does.
@@ -315,12 +320,32 @@ kernel void render(global const float *height, global const float4 *colour, glob
     float weight = 0.0f;
     int left_n = 0, miss_n = 0;
     float wa[NL], wb[NL];
-    pixel_ranges(nbuf, range, p, coc_scale, inv_focus, wmax, thick, wa, wb);
+    float front = pixel_ranges(nbuf, range, p, coc_scale, inv_focus, wmax, thick, wa, wb);
     for (int j = 0; j < NRAYS; ++j) {
         int s = (int)o + j;
         float4 r = rays[s < NSAMPLES ? s : s - NSAMPLES];   // b = xi S and 1 / b, from the host
         float2 b = r.xy, ib = r.zw;
         float2 a = p - b * inv_focus;
+#ifndef CONE
+        // Most rays hit layer 0 in the first cell the walk would visit, where its segment starts
+        // (wb[0]): that step of walk_layer, with the same arithmetic, then nothing else when no
+        // later layer can be hit in front of it (w >= front: a tie goes to layer 0 anyway); any
+        // other ray is traced in full (the walk repeats the step). Half the time on the foreground scene.
+        if (wa[0] <= wb[0]) {
+            float2 q = a + b * wb[0];
+            if (q.x >= 0.0f && q.x < (float)W && q.y >= 0.0f && q.y < (float)H) {
+                int ix = (int)floor(q.x), iy = (int)floor(q.y), cell = iy * W + ix;
+                float wx = b.x != 0.0f ? ((float)(b.x > 0.0f ? ix : ix + 1) - a.x) * ib.x : -INFINITY;
+                float wy = b.y != 0.0f ? ((float)(b.y > 0.0f ? iy : iy + 1) - a.y) * ib.y : -INFINITY;
+                float h = height[cell];
+                if (h >= 0.0f && h <= wb[0] && h >= fmax(fmax(wx, wy), wa[0]) && h >= front) {
+                    sum += surface_colour(height, colour, 0, cell, h, a, b, thick);
+                    weight += 1.0f;
+                    continue;
+                }
+            }
+        }
+#endif
         bool left;
         hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, ib, wmax, INFINITY, thick, &left);
         if (hit.layer < 0) {

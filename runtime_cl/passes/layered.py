@@ -88,6 +88,9 @@ class LayeredPass(RuntimePass):
         self.clamp_iters, self.pixel_iters, self.false_position = clamp_iters, pixel_iters, false_position
         self.cone = bool(cone)
         self.seed = int(seed)
+        if not isinstance(interpolate_hidden, (bool, np.bool_)):
+            raise InputError(f"interpolate_hidden = {interpolate_hidden!r}: give true or false (read peeled "
+                             "surfels bilinearly, or by cell)")
         self.interpolate_hidden = bool(interpolate_hidden)
         self._tracers: dict = {}
 

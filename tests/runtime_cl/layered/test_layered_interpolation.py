@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 from layered_reference import brute_force_hits
 
+import runtime_cl
 from runtime_cl.camera.thin_lens import ThinLens
+from runtime_cl.errors import InputError
 from runtime_cl.layered.lens_samples import disc_samples
 from runtime_cl.layered.tracer import LayerTracer, layer_stack
 
@@ -81,3 +83,9 @@ def test_rays_see_a_peeled_surface_at_their_hit_points(interpolate):
     else:
         # read by cell, a ray gets its cell centre's colour, up to 0.035 off (half a cell of ramp)
         assert err.max() > 1e-3
+
+
+def test_interpolate_hidden_must_be_a_bool():
+    rgb, depth = np.zeros((4, 4, 3), np.float32), np.ones((4, 4))
+    with pytest.raises(InputError, match="interpolate_hidden = 'yes': give true or false"):
+        runtime_cl.render(rgb, depth, CAMERA, method="layered", rays=4, interpolate_hidden="yes")

@@ -326,7 +326,7 @@ kernel void render(global const float *height, global const float4 *colour, glob
         float4 r = rays[s < NSAMPLES ? s : s - NSAMPLES];   // b = xi S and 1 / b, from the host
         float2 b = r.xy, ib = r.zw;
         float2 a = p - b * inv_focus;
-#ifndef CONE
+#if !defined(CONE) && !defined(FALSE_POSITION)
         // Most rays hit layer 0 in the first cell the walk would visit, where its segment starts
         // (wb[0]): that step of walk_layer, with the same arithmetic, then nothing else when no
         // later layer can be hit in front of it (w >= front: a tie goes to layer 0 anyway); any

@@ -45,7 +45,7 @@ class ThickLayerTracer(LayerTracer):
     STATS_INTS = 4
 
     def __init__(self, camera, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
-                 pixel_iters: int = 3, false_position: int = 0, device=None):
+                 pixel_iters: int = 3, false_position: int = 0, interpolate_hidden: bool = True, device=None):
         lens = TracedLens.from_camera(camera)
         if len(lens.eta) != 3:
             raise InputError(f"camera indices: {len(lens.eta)} channel(s); the layered tracer renders RGB, so the "
@@ -61,7 +61,8 @@ class ThickLayerTracer(LayerTracer):
         self.pupil_z = float(camera.pupil_z_mm)
         self.coc_scale = float(camera.coc_scale_px(w))
         super().__init__(shape, n_layers, rays, downsample=downsample, clamp_iters=clamp_iters,
-                         pixel_iters=pixel_iters, false_position=false_position, cone=False, device=device)
+                         pixel_iters=pixel_iters, false_position=false_position, cone=False,
+                         interpolate_hidden=interpolate_hidden, device=device)
         cl = self.cl
         self._render_thick = cl.Kernel(self.program, "render_thick")
         self._thick_rays = cl.Kernel(self.program, "thick_rays")

@@ -165,6 +165,10 @@ class LayerTracer:
     cone : bool, default False
         LES09's approximate cone tracing: colour + coverage from a mipmap over the window between
         neighbouring rays, the uncovered part traced on (see the kernel file).
+    interpolate_hidden : bool, default True
+        Read a surfel hidden behind a nearer layer's pixel (a peeled one) bilinearly at the ray's
+        hit point, between the cells of its surface; a surfel the pinhole sees by its cell
+        (``surface_colour`` in the kernel file). False: every surfel by its cell.
     device : Device, optional
     """
 
@@ -172,7 +176,8 @@ class LayerTracer:
     STATS_INTS = 2                          # per-pixel ray counts the render kernel writes
 
     def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
-                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, device=None):
+                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, interpolate_hidden: bool = True,
+                 device=None):
         import pyopencl as cl
 
         for name, value, least in (("rays", rays, 1), ("layers", n_layers, 1), ("downsample", downsample, 1),
@@ -189,7 +194,7 @@ class LayerTracer:
         opts = [f"-DW={self.w}", f"-DH={self.h}", f"-DNL={self.n_layers}", f"-DNRAYS={self.rays}",
                 f"-DNSAMPLES={2 * self.rays}", f"-DDS={self.ds}", f"-DW4={self.w4}", f"-DH4={self.h4}",
                 f"-DLEVELS={self.levels}", f"-DCLAMP_ITERS={int(clamp_iters)}",
-                f"-DPIXEL_ITERS={int(pixel_iters)}"]
+                f"-DPIXEL_ITERS={int(pixel_iters)}", f"-DINTERPOLATE_HIDDEN={int(bool(interpolate_hidden))}"]
         if false_position:
             opts += ["-DFALSE_POSITION", f"-DFP_ITERS={int(false_position)}"]
         self.cone = bool(cone)
@@ -209,6 +214,7 @@ class LayerTracer:
                     "nbuf": cl.Buffer(ctx, mf.READ_ONLY, 8 * self.n_layers * self.levels * self.h4 * self.w4),
                     "range": cl.Buffer(ctx, mf.READ_ONLY, 8 * self.n_layers),
                     "samples": cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=self.samples),
+                    "lens_rays": cl.Buffer(ctx, mf.READ_ONLY, 16 * len(self.samples)),
                     "out": cl.Buffer(ctx, mf.WRITE_ONLY, 16 * n),
                     "inv_focus": cl.Buffer(ctx, mf.READ_ONLY, 4 * n),
                     "mip": cl.Buffer(ctx, mf.READ_ONLY, 16 * self.n_layers * (2 * n + 4 * self.mips)
@@ -216,6 +222,7 @@ class LayerTracer:
                     "mip_offset": cl.Buffer(ctx, mf.READ_ONLY, 4 * self.n_layers * self.mips),
                     "stats": cl.Buffer(ctx, mf.WRITE_ONLY, 4 * self.STATS_INTS * n)}
         self._focus_uploaded = None   # the per-pixel 1/F array last uploaded (the same one: no upload)
+        self._rays_scale = None       # the CoC scale the lens rays were last uploaded for
 
     def _lens_options(self) -> list:
         """Build options of the lens (none for the thin lens: its rays are scaled disc samples)."""
@@ -224,6 +231,13 @@ class LayerTracer:
     def _lens_samples(self) -> np.ndarray:
         """The jittered lens sample set: 2 ``rays`` Halton points on the unit disc."""
         return disc_samples(2 * self.rays)
+
+    def _lens_rays(self, coc_scale: float) -> np.ndarray:
+        """(2 rays, 4) float32: each lens sample's b = xi S and 1 / b (inf where 0), the kernel's
+        float arithmetic done once per render rather than once per ray and layer."""
+        b = self.samples * np.float32(coc_scale)
+        with np.errstate(divide="ignore"):
+            return np.ascontiguousarray(np.concatenate([b, np.float32(1.0) / b], axis=1), np.float32)
 
     def _upload(self, stack: LayerStack) -> tuple:
         """The uploads and the min/max N-buffer, built on the device; (transfer events, wmax).
@@ -291,12 +305,15 @@ class LayerTracer:
                                  f"{(self.h, self.w)}")
             events.append(cl.enqueue_copy(q, b["inv_focus"], inv_focus, is_blocking=False))
             self._focus_uploaded = key
+        if self._rays_scale != float(coc_scale):
+            events.append(cl.enqueue_copy(q, b["lens_rays"], self._lens_rays(coc_scale), is_blocking=False))
+            self._rays_scale = float(coc_scale)
         if self.cone:
             mip, offsets = colour_mipmaps(stack, self.mips)
             events += [cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),
                        cl.enqueue_copy(q, b["mip_offset"], offsets, is_blocking=False)]
         gsize = (-(-self.w // 8) * 8, -(-self.h // 8) * 8)
-        kernel = self._render(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["samples"],
+        kernel = self._render(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["lens_rays"],
                               np.float32(coc_scale), b["inv_focus"], np.float32(wmax),
                               np.float32(thickness_px / coc_scale), np.uint32(seed % 2**32), b["mip"],
                               b["mip_offset"], np.float32(math.sqrt(math.pi / self.rays)), b["out"], b["stats"])

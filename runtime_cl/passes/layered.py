@@ -53,6 +53,12 @@ class LayeredPass(RuntimePass):
         LES09's approximate cone tracing with colour + coverage mipmaps (fewer rays, less grain).
     seed : int, default 0
         Seeds the per-pixel offsets into the jittered lens sample set.
+    interpolate_hidden : bool, default True
+        Read what lies behind a nearer layer's pixel (a peeled surfel) bilinearly at each ray's
+        hit point, between the cells of its surface, and what the pinhole sees by its cell (sharp,
+        as the input). False: every surfel by its cell. Lens rays reach peeled surfels at sub-pixel
+        offsets past a defocused occluder; read by cell they passed the peeled layers' grain
+        (fewer samples than the input) to the image unfiltered.
     """
 
     summary = "lens rays through layered height fields (LES09/LES10), thin or thick lens; --rays N"
@@ -62,7 +68,7 @@ class LayeredPass(RuntimePass):
 
     def configure(self, *, rays: int = 32, layered_input: bool = False, max_layers: int | None = None,
                   thickness_px: float = 1.0, downsample: int = 4, clamp_iters: int = 0, pixel_iters: int = 3,
-                  false_position: int = 0, cone: bool = False, seed: int = 0):
+                  false_position: int = 0, cone: bool = False, seed: int = 0, interpolate_hidden: bool = True):
         if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or rays < 1:
             raise InputError(f"rays = {rays!r}: the number of lens rays per pixel must be an integer >= 1, "
                              "e.g. --rays 100")
@@ -82,6 +88,10 @@ class LayeredPass(RuntimePass):
         self.clamp_iters, self.pixel_iters, self.false_position = clamp_iters, pixel_iters, false_position
         self.cone = bool(cone)
         self.seed = int(seed)
+        if not isinstance(interpolate_hidden, (bool, np.bool_)):
+            raise InputError(f"interpolate_hidden = {interpolate_hidden!r}: give true or false (read peeled "
+                             "surfels bilinearly, or by cell)")
+        self.interpolate_hidden = bool(interpolate_hidden)
         self._tracers: dict = {}
 
     def _layers(self, frame) -> list:
@@ -106,7 +116,8 @@ class LayeredPass(RuntimePass):
             self._tracers[key] = tracer_for(self.camera, stack.shape, len(stack.inv_depth), self.rays,
                                             downsample=self.downsample, clamp_iters=self.clamp_iters,
                                             pixel_iters=self.pixel_iters, false_position=self.false_position,
-                                            cone=self.cone, device=self.device)
+                                            cone=self.cone, interpolate_hidden=self.interpolate_hidden,
+                                            device=self.device)
         return self._tracers[key], stack
 
     def __call__(self, prepared):

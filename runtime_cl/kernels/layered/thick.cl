@@ -110,13 +110,13 @@ kernel void render_thick(global const float *height, global const float4 *colour
             if (!thick_ray(s, pixel_sample(samples, o, j), ch, boxes, &a, &b, &weight))
                 continue;
             bool left;
-            hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, INFINITY, thick, &left);
+            hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, 1.0f / b, wmax, INFINITY, thick, &left);
             if (hit.layer < 0) {
                 left_n += left ? 1 : 0;
                 miss_n += left ? 0 : 1;
                 continue;
             }
-            sum[ch] += weight * lane(colour[(size_t)hit.layer * W * H + hit.cell], ch);
+            sum[ch] += weight * lane(surface_colour(height, colour, hit.layer, hit.cell, hit.w, a, b, thick), ch);
             wsum[ch] += weight;
             ++hit_n;
         }

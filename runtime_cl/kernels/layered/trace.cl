@@ -22,9 +22,9 @@
 // empty footprint culls the layer. The rest is walked cell by cell (exact 2D DDA, near to far).
 //
 // Constants (-D): W, H, NL (layers), NRAYS, NSAMPLES (lens samples, 2 NRAYS), DS, W4, H4 (the
-// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS, PIXEL_ITERS; FALSE_POSITION and
-// FP_ITERS for LES09's search instead of the exact walk; CONE, CONE_STEPS and MIPS for approximate
-// cone tracing.
+// down-sampled grid), LEVELS (N-buffer levels), CLAMP_ITERS, PIXEL_ITERS; INTERPOLATE_HIDDEN (1: read
+// surfels hidden behind a nearer layer bilinearly, see surface_colour); FALSE_POSITION and FP_ITERS for LES09's
+// search instead of the exact walk; CONE, CONE_STEPS and MIPS for approximate cone tracing.
 
 #define MARGIN 0.01f   // pixels added around footprints: float rounding must not drop a cell
 
@@ -72,13 +72,13 @@ static bool clamp_segment(global const float2 *nbuf, int k, float2 a, float2 b, 
 // w > best->w becomes the best hit. Cell boundaries are crossed at w = (edge - a) / b, computed
 // from the edge itself rather than accumulated, so where a ray enters a cell does not depend on
 // where the walk started: a hit at a cell's entry ties exactly across layers (the lower wins).
-static void walk_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
+static void walk_layer(global const float *height, int k, float2 a, float2 b, float2 ib, float wa, float wb,
                        float thick, hit_t *best)
 {
     float2 q0 = a + b * wb;
     int ix = clamp((int)floor(q0.x), 0, W - 1), iy = clamp((int)floor(q0.y), 0, H - 1);
     int sx = b.x > 0.0f ? -1 : 1, sy = b.y > 0.0f ? -1 : 1;   // q moves against b as w falls
-    float w_enter = wb, ibx = 1.0f / b.x, iby = 1.0f / b.y;   // inf for b = 0: never crossed
+    float w_enter = wb, ibx = ib.x, iby = ib.y;   // 1 / b (inf for b = 0: never crossed)
     global const float *layer = height + (size_t)k * W * H;
     for (;;) {
         float wx = b.x != 0.0f ? ((float)(sx < 0 ? ix : ix + 1) - a.x) * ibx : -INFINITY;
@@ -141,7 +141,7 @@ static void bracket(global const float *layer, float2 a, float2 b, float wi, flo
     }
 }
 
-static void search_layer(global const float *height, int k, float2 a, float2 b, float wa, float wb,
+static void search_layer(global const float *height, int k, float2 a, float2 b, float2 ib, float wa, float wb,
                          float thick, hit_t *best)
 {
     global const float *layer = height + (size_t)k * W * H;
@@ -172,17 +172,17 @@ static void search_layer(global const float *height, int k, float2 a, float2 b, 
 #endif
 
 // The w-range of q(w) = a + b w inside [0, W) x [0, H), within [lo, hi]; false if none.
-static bool clip_to_image(float2 a, float2 b, float *lo, float *hi)
+static bool clip_to_image(float2 a, float2 b, float2 ib, float *lo, float *hi)
 {
     float2 size = (float2)(W, H);
     for (int i = 0; i < 2; ++i) {
-        float ai = i ? a.y : a.x, bi = i ? b.y : b.x, si = i ? size.y : size.x;
+        float ai = i ? a.y : a.x, bi = i ? b.y : b.x, ibi = i ? ib.y : ib.x, si = i ? size.y : size.x;
         if (bi == 0.0f) {
             if (ai < 0.0f || ai >= si)
                 return false;
             continue;
         }
-        float w1 = -ai / bi, w2 = (si - ai) / bi;
+        float w1 = -ai * ibi, w2 = (si - ai) * ibi;
         *lo = fmax(*lo, fmin(w1, w2));
         *hi = fmin(*hi, fmax(w1, w2));
     }
@@ -190,13 +190,14 @@ static bool clip_to_image(float2 a, float2 b, float *lo, float *hi)
 }
 
 // The nearest surfel hit of the ray (a, b) over every layer, each searched within [wa[k], wb[k]]
-// (wa > wb: skip the layer) and below wcap; *left: part of [0, wmax] is off the image.
+// (wa > wb: skip the layer) and below wcap; ib = 1 / b per lane (inf where b is 0), so a ray
+// divides once, not per layer and image edge; *left: part of [0, wmax] is off the image.
 static hit_t trace_ray(global const float *height, global const float2 *nbuf, const float *wa0, const float *wb0,
-                       float2 a, float2 b, float wmax, float wcap, float thick, bool *left)
+                       float2 a, float2 b, float2 ib, float wmax, float wcap, float thick, bool *left)
 {
     hit_t best = {-1.0f, -1, -1};
     float lo = 0.0f, hi = wmax;
-    bool inside = clip_to_image(a, b, &lo, &hi);
+    bool inside = clip_to_image(a, b, ib, &lo, &hi);
     *left = !inside || lo > 0.0f || hi < wmax;
     if (!inside)
         return best;
@@ -206,17 +207,19 @@ static hit_t trace_ray(global const float *height, global const float2 *nbuf, co
             continue;   // an empty layer, or nothing of it in front of the best hit
         if (!clamp_segment(nbuf, k, a, b, thick, &wa, &wb))
             continue;
-        SEARCH_LAYER(height, k, a, b, wa, wb, thick, &best);
+        SEARCH_LAYER(height, k, a, b, ib, wa, wb, thick, &best);
     }
     return best;
 }
 
 // Per layer, the inverse depths any lens ray of pixel p can hit (LES10: one footprint bounds all
 // of a pixel's rays: at w they lie within S |w - 1/F| of p, the CoC, largest at an end of the
-// segment); wa > wb where none can.
-static void pixel_ranges(global const float2 *nbuf, global const float2 *range, float2 p, float coc_scale,
-                         float inv_focus, float wmax, float thick, float *wa, float *wb)
+// segment); wa > wb where none can. Returns the largest wb of the layers behind the first (-1: none
+// can be hit): a layer-0 hit at w >= it is the ray's hit (render's first-cell test).
+static float pixel_ranges(global const float2 *nbuf, global const float2 *range, float2 p, float coc_scale,
+                          float inv_focus, float wmax, float thick, float *wa, float *wb)
 {
+    float front = -1.0f;   // the nearest inverse depth a layer behind the first can be hit at
     for (int k = 0; k < NL; ++k) {
         float2 r = range[k];
         float lo = fmax(0.0f, r.x - thick), hi = fmin(wmax, r.y);
@@ -230,7 +233,10 @@ static void pixel_ranges(global const float2 *nbuf, global const float2 *range, 
         }
         wa[k] = lo;
         wb[k] = hi;
+        if (k > 0 && lo <= hi)
+            front = fmax(front, hi);
     }
+    return front;
 }
 
 // The colour of the nearest layer that holds something at pixel (x, y); *found: one does.
@@ -243,6 +249,42 @@ static float4 own_colour(global const float *height, global const float4 *colour
         }
     *found = false;
     return (float4)0.0f;
+}
+
+// The colour of layer k's surface where the ray (a, b) hits it at inverse depth w, cell `cell`. A
+// surfel the pinhole view sees (no nearer layer holds its cell) is the input's own pixel: read by
+// cell, so in-focus detail stays as sharp as the input. A surfel hidden behind a nearer layer's
+// pixel (a peeled one) is read bilinearly between the centres of the four cells around q(w), over
+// those of the same surface (same layer, inverse depth within thick of the hit), renormalised:
+// lens rays reach it at sub-pixel offsets past a defocused occluder, and reading the whole cell
+// passed the peeled layer's per-pixel grain (it is peeled at fewer samples) to the image unfiltered.
+static float4 surface_colour(global const float *height, global const float4 *colour, int k, int cell, float w,
+                             float2 a, float2 b, float thick)
+{
+    size_t base = (size_t)k * W * H;
+    bool hidden = false;
+    for (int n = 0; n < k && INTERPOLATE_HIDDEN; ++n)
+        hidden = hidden || height[(size_t)n * W * H + cell] >= 0.0f;
+    if (!hidden)
+        return colour[base + cell];
+    float2 q = a + b * w - 0.5f;
+    int x0 = (int)floor(q.x), y0 = (int)floor(q.y);
+    float fx = q.x - (float)x0, fy = q.y - (float)y0;
+    float h0 = height[base + cell];
+    float4 sum = (float4)0.0f;
+    float wsum = 0.0f;
+    for (int j = 0; j < 4; ++j) {
+        int x = x0 + (j & 1), y = y0 + (j >> 1);
+        if (x < 0 || x >= W || y < 0 || y >= H)
+            continue;
+        float h = height[base + y * W + x];
+        if (!(fabs(h - h0) <= thick) || h < 0.0f)
+            continue;   // another surface (a silhouette) or nothing
+        float wt = ((j & 1) ? fx : 1.0f - fx) * ((j >> 1) ? fy : 1.0f - fy);
+        sum += wt * colour[base + y * W + x];
+        wsum += wt;
+    }
+    return wsum > 0.0f ? sum / wsum : colour[base + cell];
 }
 
 static uint hash_u32(uint x)
@@ -264,7 +306,7 @@ static uint hash_u32(uint x)
 // log2 of the diameter); the covered fraction v adds its mean colour, the rest (1 - v) goes on
 // behind the surfel's slab, up to CONE_STEPS hits. A ray's weight is the fraction it found.
 kernel void render(global const float *height, global const float4 *colour, global const float2 *nbuf,
-                   global const float2 *range, global const float2 *samples, float coc_scale,
+                   global const float2 *range, global const float4 *rays, float coc_scale,
                    global const float *inv_focus_map, float wmax, float thick, uint seed, global const float4 *mip,
                    global const int *mip_offset, float lambda, global float4 *out, global int2 *stats)
 {
@@ -278,13 +320,34 @@ kernel void render(global const float *height, global const float4 *colour, glob
     float weight = 0.0f;
     int left_n = 0, miss_n = 0;
     float wa[NL], wb[NL];
-    pixel_ranges(nbuf, range, p, coc_scale, inv_focus, wmax, thick, wa, wb);
+    float front = pixel_ranges(nbuf, range, p, coc_scale, inv_focus, wmax, thick, wa, wb);
     for (int j = 0; j < NRAYS; ++j) {
         int s = (int)o + j;
-        float2 b = samples[s < NSAMPLES ? s : s - NSAMPLES] * coc_scale;
+        float4 r = rays[s < NSAMPLES ? s : s - NSAMPLES];   // b = xi S and 1 / b, from the host
+        float2 b = r.xy, ib = r.zw;
         float2 a = p - b * inv_focus;
+#if !defined(CONE) && !defined(FALSE_POSITION)
+        // Most rays hit layer 0 in the first cell the walk would visit, where its segment starts
+        // (wb[0]): that step of walk_layer, with the same arithmetic, then nothing else when no
+        // later layer can be hit in front of it (w >= front: a tie goes to layer 0 anyway); any
+        // other ray is traced in full (the walk repeats the step). Half the time on the foreground scene.
+        if (wa[0] <= wb[0]) {
+            float2 q = a + b * wb[0];
+            if (q.x >= 0.0f && q.x < (float)W && q.y >= 0.0f && q.y < (float)H) {
+                int ix = (int)floor(q.x), iy = (int)floor(q.y), cell = iy * W + ix;
+                float wx = b.x != 0.0f ? ((float)(b.x > 0.0f ? ix : ix + 1) - a.x) * ib.x : -INFINITY;
+                float wy = b.y != 0.0f ? ((float)(b.y > 0.0f ? iy : iy + 1) - a.y) * ib.y : -INFINITY;
+                float h = height[cell];
+                if (h >= 0.0f && h <= wb[0] && h >= fmax(fmax(wx, wy), wa[0]) && h >= front) {
+                    sum += surface_colour(height, colour, 0, cell, h, a, b, thick);
+                    weight += 1.0f;
+                    continue;
+                }
+            }
+        }
+#endif
         bool left;
-        hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, INFINITY, thick, &left);
+        hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, ib, wmax, INFINITY, thick, &left);
         if (hit.layer < 0) {
             left_n += left ? 1 : 0;
             miss_n += left ? 0 : 1;
@@ -302,13 +365,13 @@ kernel void render(global const float *height, global const float4 *colour, glob
             if (through < 0.01f)
                 break;
             float cap = height[(size_t)hit.layer * W * H + hit.cell] - thick * 1.0001f - 1e-7f;
-            hit = trace_ray(height, nbuf, wa, wb, a, b, wmax, cap, thick, &left);
+            hit = trace_ray(height, nbuf, wa, wb, a, b, ib, wmax, cap, thick, &left);
             if (hit.layer < 0)
                 break;
         }
         weight += 1.0f - through;
 #else
-        sum += colour[(size_t)hit.layer * W * H + hit.cell];
+        sum += surface_colour(height, colour, hit.layer, hit.cell, hit.w, a, b, thick);
         weight += 1.0f;
 #endif
     }
@@ -342,6 +405,6 @@ kernel void trace_rays(global const float *height, global const float2 *nbuf, gl
         wb[k] = range[k].y;
     }
     bool left;
-    hit_t hit = trace_ray(height, nbuf, wa, wb, r.xy, r.zw, wmax, INFINITY, thick, &left);
+    hit_t hit = trace_ray(height, nbuf, wa, wb, r.xy, r.zw, 1.0f / r.zw, wmax, INFINITY, thick, &left);
     out[i] = (float4)(hit.w, (float)hit.layer, (float)hit.cell, left ? 1.0f : 0.0f);
 }

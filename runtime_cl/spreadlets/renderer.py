@@ -25,6 +25,7 @@ from runtime_cl.spreadlets.highlights import HDR_RATIO, bright_pixels, splat_hig
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
+from runtime_cl.spreadlets.angle_bank import AngleBank
 from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
 
 
@@ -44,9 +45,12 @@ class Renderer:
     run_max : int
         Longest run of same-cell pixels the splat kernels splat together (default 32; 1 splats
         pixel by pixel, as LSR18's one-thread-per-pixel loop). Applies to both splat methods.
-    spreadlet_rotation : {"bilinear", "nearest"}
+    spreadlet_rotation : {"bilinear", "nearest", "bank"}
         How turned spreadlets land on pixels when :meth:`render` gets an angle (default
-        ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`).
+        ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`). ``"bank"``: the
+        spreadlets method splats every PSF (fast-tracked dense ones too) pre-turned at the
+        nearest of a set of quantised angles (:mod:`runtime_cl.spreadlets.angle_bank`, built
+        once per renderer); Splat and Filter still turn per pixel.
     integrator : str
         How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
         (:func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``, the float32 FFT;
@@ -81,6 +85,14 @@ class Renderer:
             raise InputError(f"hdr_ratio = {hdr_ratio!r}: must be a number >= 1 (or None: no dense highlights)")
         self.hdr_ratio = hdr_ratio
         self._wrappers: dict = {}
+        self._bank = None
+
+    @property
+    def angle_bank(self):
+        """The database's :class:`~runtime_cl.spreadlets.angle_bank.AngleBank` (built on first use)."""
+        if self._bank is None:
+            self._bank = AngleBank(self.db)
+        return self._bank
 
     def _wrapper(self, method: str, channels: int, rotate: bool, half: bool = False):
         key = (method, channels, rotate, half)
@@ -212,8 +224,10 @@ class _Spreadlets:
 
     @classmethod
     def wrapper(cls, r: Renderer, channels: int, rotate: bool, half: bool = False):
+        banked = rotate and not half and not cls.dense_all and r.spreadlet_rotation == "bank"
         return TileSplatter(r.ddb, channels, dense_all=cls.dense_all, run_max=r.run_max, rotate=rotate,
-                            spreadlet_rotation=r.spreadlet_rotation, half_turns=half)
+                            spreadlet_rotation=r.spreadlet_rotation, half_turns=half,
+                            bank=r.angle_bank if banked else None)
 
     @classmethod
     def run(cls, r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):

@@ -25,7 +25,7 @@ from runtime_cl.passes.registry import RuntimePass, integrating_passes, register
 from runtime_cl.psf.far_field import FarField
 from runtime_cl.spreadlets.layers import SpreadletLayerSplatter
 from runtime_cl.spreadlets.renderer import Renderer
-from runtime_cl.spreadlets.splat import RUN_MAX
+from runtime_cl.spreadlets.splat import DEFAULT_SPREADLET_ROTATION, RUN_MAX
 from runtime_cl.timing import CallTimes
 
 __all__ = ["SpreadletPass", "SpreadletsPass", "SplatPass", "FilterPass"]
@@ -51,7 +51,7 @@ class SpreadletPass(RuntimePass):
     layered = True
     far_field = True
 
-    def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
+    def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = DEFAULT_SPREADLET_ROTATION,
                   far_field=None, integrator: str = DEFAULT_INTEGRATOR, layered_input: bool = False,
                   soft_layers: float = 0.0, hdr_ratio="default"):
         get_integrator(integrator)   # an unknown name is an error for every pass

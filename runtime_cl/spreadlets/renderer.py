@@ -26,7 +26,7 @@ from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
 from runtime_cl.spreadlets.angle_bank import AngleBank
-from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
+from runtime_cl.spreadlets.splat import DEFAULT_SPREADLET_ROTATION, RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
 
 
 
@@ -46,8 +46,8 @@ class Renderer:
         Longest run of same-cell pixels the splat kernels splat together (default 32; 1 splats
         pixel by pixel, as LSR18's one-thread-per-pixel loop). Applies to both splat methods.
     spreadlet_rotation : {"bilinear", "nearest", "bank"}
-        How turned spreadlets land on pixels when :meth:`render` gets an angle (default
-        ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`). ``"bank"``: the
+        How turned spreadlets land on pixels when :meth:`render` gets an angle (``"bilinear"``,
+        ``"nearest"``: see :class:`~runtime_cl.spreadlets.splat.TileSplatter`). ``"bank"`` (default): the
         spreadlets method splats every PSF (fast-tracked dense ones too) pre-turned at the
         nearest of a set of quantised angles (:mod:`runtime_cl.spreadlets.angle_bank`, built
         once per renderer); Splat and Filter still turn per pixel.
@@ -65,7 +65,7 @@ class Renderer:
     """
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
-                 run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
+                 run_max: int = RUN_MAX, spreadlet_rotation: str = DEFAULT_SPREADLET_ROTATION,
                  integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False,
                  hdr_ratio: float | None = HDR_RATIO):
         integrator_class = get_integrator(integrator)   # an unknown name fails before any upload

@@ -53,48 +53,52 @@ def bank_cs(k: int, K: int) -> tuple:
     return math.cos(a), math.sin(a)
 
 
-def turned_spreadlets(P: np.ndarray, V: np.ndarray, cs: tuple) -> tuple:
-    """Spreadlets (P int (n, 2) offsets (dx, dy), V (n, C)) turned by cs and shared bilinearly
-    among the four pixels around each turned offset (``splat_spreadlets_rotated``), the shares
-    summed per pixel. Returns (P int16 (m, 2), V float32 (m, C)) sorted by (dy, dx)."""
-    c, s = cs
-    x, y = P[:, 0].astype(np.float64), P[:, 1].astype(np.float64)
-    fx, fy = c * x + s * y, c * y - s * x   # rotate_xy
+def turned_spreadlets(P: np.ndarray, V: np.ndarray, cs: np.ndarray) -> tuple:
+    """Spreadlets (P int (n, 2) offsets (dx, dy), V (n, C)) turned by each of cs ((K, 2) cos,
+    sin) and shared bilinearly among the four pixels around each turned offset
+    (``splat_spreadlets_rotated``), the shares summed per pixel. Returns (counts (K,), P int16
+    (m, 2), V float32 (m, C)): the turns one after another, each sorted by (dy, dx)."""
+    K, ch = len(cs), V.shape[1]
+    if not len(P):
+        return np.zeros(K, np.int64), np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32)
+    c, s = cs[:, :1], cs[:, 1:]
+    x, y = P[None, :, 0].astype(np.float64), P[None, :, 1].astype(np.float64)
+    fx, fy = c * x + s * y, c * y - s * x   # rotate_xy, (K, n)
     ix, iy = np.floor(fx), np.floor(fy)
     wx, wy = fx - ix, fy - iy
     ix, iy = ix.astype(np.int64), iy.astype(np.int64)
-    px = np.concatenate([ix, ix + 1, ix, ix + 1])
-    py = np.concatenate([iy, iy, iy + 1, iy + 1])
-    w = np.concatenate([(1 - wx) * (1 - wy), wx * (1 - wy), (1 - wx) * wy, wx * wy])
-    vals = np.tile(V.astype(np.float64), (4, 1)) * w[:, None]
+    px = np.concatenate([ix, ix + 1, ix, ix + 1], axis=1)
+    py = np.concatenate([iy, iy, iy + 1, iy + 1], axis=1)
+    w = np.concatenate([(1 - wx) * (1 - wy), wx * (1 - wy), (1 - wx) * wy, wx * wy], axis=1)
+    k = np.broadcast_to(np.arange(K)[:, None], w.shape)
     keep = w != 0.0   # quarter turns: one share of weight 1
-    px, py, vals = px[keep], py[keep], vals[keep]
-    if not len(px):
-        return np.zeros((0, 2), np.int16), np.zeros((0, V.shape[1]), np.float32)
+    px, py, w, k = px[keep], py[keep], w[keep], k[keep]
+    vals = np.tile(V.astype(np.float64), (4, 1))[np.nonzero(keep)[1]] * w[:, None]
     lo = min(px.min(), py.min())
     span = max(px.max(), py.max()) - lo + 1
-    key = (py - lo) * span + (px - lo)
+    key = (k * span + (py - lo)) * span + (px - lo)
     uniq, inv = np.unique(key, return_inverse=True)
-    out = np.zeros((len(uniq), V.shape[1]))
+    out = np.zeros((len(uniq), ch))
     np.add.at(out, inv, vals)
-    pts = np.column_stack([uniq % span + lo, uniq // span + lo]).astype(np.int16)
-    return pts, out.astype(np.float32)
+    pix = uniq % (span * span)
+    pts = np.column_stack([pix % span + lo, pix // span + lo]).astype(np.int16)
+    return np.bincount(uniq // (span * span), minlength=K), pts, out.astype(np.float32)
 
 
-def turned_dense(psf: np.ndarray, cs: tuple) -> np.ndarray:
-    """A dense PSF ((2r+1, 2r+1, C), centre [r, r]) turned by cs as ``rotate.cl`` turns it:
-    destination offset d takes the stored PSF bilinearly at R^-1 d (zero outside the crop's
-    support |R^-1 d| < r + 1), scaled per channel to keep the stored sum. Returns the turned
-    PSF cropped to the smallest centred square holding its non-zero pixels, float32."""
+def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
+    """A dense PSF ((2r+1, 2r+1, C), centre [r, r]) turned by each of cs ((K, 2)) as
+    ``rotate.cl`` turns it: destination offset d takes the stored PSF bilinearly at R^-1 d (zero
+    outside the crop's support |R^-1 d| < r + 1), scaled per channel to keep the stored sum.
+    Returns K float32 crops, each the smallest centred square holding its non-zero pixels."""
     r = psf.shape[0] // 2
-    c, s = cs
-    reach = int(math.floor((r + 1) * (abs(c) + abs(s))))
+    reach = int(math.floor((r + 1) * math.sqrt(2.0)))   # every turn's reach (rotate.cl turned_reach)
     d = np.arange(-reach, reach + 1, dtype=np.float64)
     dx, dy = np.meshgrid(d, d)
-    sx, sy = c * dx - s * dy, s * dx + c * dy
+    c, s = cs[:, 0, None, None], cs[:, 1, None, None]
+    sx, sy = c * dx - s * dy, s * dx + c * dy   # (K, side, side)
     inside = (np.abs(sx) < r + 1) & (np.abs(sy) < r + 1)
     ix, iy = np.floor(sx).astype(np.int64), np.floor(sy).astype(np.int64)
-    wx, wy = sx - ix, sy - iy
+    wx, wy = (sx - ix)[..., None], (sy - iy)[..., None]
     f = psf.astype(np.float64)
     padded = np.zeros((f.shape[0] + 4, f.shape[1] + 4, f.shape[2]))
     padded[2:-2, 2:-2] = f   # taps one outside the crop read zeros
@@ -102,15 +106,28 @@ def turned_dense(psf: np.ndarray, cs: tuple) -> np.ndarray:
     def tap(xx, yy):
         return padded[np.clip(yy + r + 2, 0, padded.shape[0] - 1), np.clip(xx + r + 2, 0, padded.shape[1] - 1)]
 
-    out = (tap(ix, iy) * ((1 - wx) * (1 - wy))[..., None] + tap(ix + 1, iy) * (wx * (1 - wy))[..., None]
-           + tap(ix, iy + 1) * ((1 - wx) * wy)[..., None] + tap(ix + 1, iy + 1) * (wx * wy)[..., None])
+    out = (tap(ix, iy) * ((1 - wx) * (1 - wy)) + tap(ix + 1, iy) * (wx * (1 - wy))
+           + tap(ix, iy + 1) * ((1 - wx) * wy) + tap(ix + 1, iy + 1) * (wx * wy))
     out[~inside] = 0.0
-    stored, turned = f.sum(axis=(0, 1)), out.sum(axis=(0, 1))
+    stored, turned = f.sum(axis=(0, 1)), out.sum(axis=(1, 2))   # (C,), (K, C)
     ok = (stored > 0) & (turned > 0)
-    out *= np.where(ok, stored / np.where(ok, turned, 1.0), 1.0)
-    nz = np.argwhere(np.any(out != 0, axis=2))
-    keep = int(np.abs(nz - reach).max()) if len(nz) else 0
-    return out[reach - keep:reach + keep + 1, reach - keep:reach + keep + 1].astype(np.float32)
+    out *= np.where(ok, stored / np.where(ok, turned, 1.0), 1.0)[:, None, None, :]
+    crops = []
+    for t in out:
+        nz = np.argwhere(np.any(t != 0, axis=2))
+        keep = int(np.abs(nz - reach).max()) if len(nz) else 0
+        crops.append(t[reach - keep:reach + keep + 1, reach - keep:reach + keep + 1].astype(np.float32))
+    return crops
+
+
+def row_spans(dense: np.ndarray) -> np.ndarray:
+    """(2r + 1, 2) int: [first, end) columns of each row's non-zero pixels (any channel); (0, 0)
+    for an all-zero row (as :func:`runtime_cl.psf.upload.dense_row_spans`)."""
+    nz = np.any(dense != 0, axis=-1)
+    has, side = nz.any(axis=1), dense.shape[1]
+    first = np.where(has, np.argmax(nz, axis=1), 0)
+    end = np.where(has, side - np.argmax(nz[:, ::-1], axis=1), 0)
+    return np.column_stack([first, end])
 
 
 class AngleBank:
@@ -118,7 +135,9 @@ class AngleBank:
 
     Entry ``base[i] + k`` is cell i turned by 2 pi k / K_i (``k = 0`` the stored PSF). The
     arrays have the names and layouts of :class:`~runtime_cl.psf.upload.DeviceDatabase`'s
-    buffers (``C, P, V, fast, dense_r, dense_off, dense_v``), spreadlets sorted by (dy, dx).
+    buffers (``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n``),
+    spreadlets sorted by (dy, dx), except that ``dense_v`` holds each row's span only (rows one
+    after another; ``dense_off`` indexes those values).
 
     Parameters
     ----------
@@ -148,21 +167,21 @@ class AngleBank:
                 reach = float(np.sqrt((p.astype(np.float64) ** 2).sum(axis=1)).max()) if len(p) else 0.0
             K = angles_for_reach(reach, self.angle_error_px)
             k_of[i] = K
-            for k in range(K):
-                cs = bank_cs(k, K)
-                if is_fast:
-                    dense = turned_dense(psf, cs)
-                    P_parts.append(np.zeros((0, 2), np.int16))
-                    V_parts.append(np.zeros((0, ch), np.float32))
-                else:
-                    pts, vals = turned_spreadlets(p, v, cs)
-                    P_parts.append(pts)
-                    V_parts.append(vals)
-                    dense = np.zeros((1, 1, ch), np.float32)
-                counts.append(len(P_parts[-1]))
-                fast.append(is_fast)
-                radii.append(dense.shape[0] // 2)
-                dense_parts.append(dense.reshape(-1, ch))
+            cs = np.array([bank_cs(k, K) for k in range(K)])
+            if is_fast:
+                dense = turned_dense(psf, cs)
+                P_parts.append(np.zeros((0, 2), np.int16))
+                V_parts.append(np.zeros((0, ch), np.float32))
+                counts.extend([0] * K)
+            else:
+                cnt, pts, vals = turned_spreadlets(p, v, cs)
+                P_parts.append(pts)
+                V_parts.append(vals)
+                counts.extend(cnt.tolist())
+                dense = [np.zeros((1, 1, ch), np.float32)] * K
+            fast.extend([is_fast] * K)
+            radii.extend(d.shape[0] // 2 for d in dense)
+            dense_parts.extend(dense)
         self.angles = k_of
         self.base = np.concatenate([[0], np.cumsum(k_of)[:-1]]).astype(np.int32)
         self.C = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -170,14 +189,17 @@ class AngleBank:
         self.V = np.concatenate(V_parts).astype(np.float32)
         self.fast = np.array(fast, np.uint8)
         self.dense_r = np.array(radii, np.int32)
-        self.dense_off = np.concatenate([[0], np.cumsum([len(x) for x in dense_parts])]).astype(np.int64)
-        self.dense_v = np.concatenate(dense_parts).astype(np.float32)
+        spans = [row_spans(d) for d in dense_parts]
+        self.span_off = np.concatenate([[0], np.cumsum([len(sp) for sp in spans])]).astype(np.int64)
+        self.span = np.concatenate(spans).astype(np.int32)
+        # values of each row's span only (a turned streak fills a small part of its square)
+        rows = [d[(np.arange(d.shape[1]) >= sp[:, :1]) & (np.arange(d.shape[1]) < sp[:, 1:])]
+                for d, sp in zip(dense_parts, spans)]
+        self.dense_n = np.array([len(v) for v in rows], np.int64)
+        self.dense_off = np.concatenate([[0], np.cumsum(self.dense_n)]).astype(np.int64)
+        self.dense_v = np.concatenate(rows).astype(np.float32)
         reach = int(np.abs(self.P.astype(np.int64)).max()) if len(self.P) else 0
         self.pad = max(reach, int(self.dense_r.max())) + 1
-
-    def dense_view(self) -> "_DenseView":
-        """The bank's dense crops as :func:`runtime_cl.psf.upload.dense_row_spans` reads a database."""
-        return _DenseView(self.dense_r, self.dense_off, self.dense_v)
 
     @property
     def n_entries(self) -> int:
@@ -188,15 +210,6 @@ class AngleBank:
     def nbytes(self) -> int:
         """Host bytes of the bank's arrays."""
         return sum(a.nbytes for a in (self.C, self.P, self.V, self.fast, self.dense_r, self.dense_off,
-                                      self.dense_v, self.angles, self.base))
+                                      self.dense_v, self.span_off, self.span, self.dense_n, self.angles,
+                                      self.base))
 
-
-class _DenseView:
-    """``dense_radius`` and ``dense_psf(i)`` of the bank's entries (what the span tables read)."""
-
-    def __init__(self, radius, offsets, values):
-        self.dense_radius, self._off, self._v = radius, offsets, values
-
-    def dense_psf(self, i: int) -> np.ndarray:
-        side = 2 * int(self.dense_radius[i]) + 1
-        return self._v[self._off[i]:self._off[i + 1]].reshape(side, side, -1)

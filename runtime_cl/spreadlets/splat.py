@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from runtime_cl.device.opencl import event_ms
-from runtime_cl.psf.upload import DeviceDatabase, dense_row_spans
+from runtime_cl.psf.upload import DeviceDatabase
 from runtime_cl.spreadlets.angle_bank import AngleBank
 from runtime_cl.errors import InputError
 from runtime_cl.integrate.poisson import fft_friendly
@@ -175,10 +175,10 @@ class TileSplatter:
         """The bank's arrays on the device, under the database buffers' names they replace."""
         import pyopencl as cl
 
-        span_off, span, dense_n = dense_row_spans(self.bank.dense_view())
+        bank = self.bank
         host = {"C": self.bank.C, "P": self.bank.P, "V": self.bank.V, "fast": self.bank.fast,
                 "dense_r": self.bank.dense_r, "dense_off": self.bank.dense_off, "dense_v": self.bank.dense_v,
-                "span_off": span_off, "span": span, "dense_n": dense_n,
+                "span_off": bank.span_off, "span": bank.span, "dense_n": bank.dense_n,
                 "bank_k": self.bank.angles, "bank_base": self.bank.base}
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         out = {}

@@ -116,10 +116,18 @@ inline void splat_run(__global pix_t *dst, const pix_t v, const pix_t *run_col, 
 inline void splat_dense(__global pix_t *dst, const int buf_w, const pix_t *run_col, const int n,
                         const int r, __global const float *dv, __global const int2 *span) {
     const int side = 2 * r + 1;
+#if BANK
+    long at = 0;   // a bank stores each row's span only, rows one after another (angle_bank.py)
+#endif
     for (int oy = 0; oy < side; ++oy) {
         const int2 s = span[oy];
         __global pix_t *row = dst + (long)oy * buf_w + s.x;
+#if BANK
+        __global const float *dvrow = dv + at * DC;
+        at += s.y - s.x;
+#else
         __global const float *dvrow = dv + ((long)oy * side + s.x) * DC;
+#endif
         for (int k = 0; k < n; ++k) dense_row(row + k, run_col[k], s.y - s.x, dvrow);
     }
 }

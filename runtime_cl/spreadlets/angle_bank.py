@@ -164,6 +164,8 @@ class AngleBank:
             is_fast = bool(db.fast_track[i])
             if is_fast:
                 psf = db.dense_psf(i)
+                # the crop's corner (its turned reach), not its farthest non-zero pixel: that
+                # tighter bound halved K and fell below the brute-force check's SSIM floor (0.9942)
                 reach = math.sqrt(2.0) * (int(db.dense_radius[i]) + 1)
             else:
                 p, v = db.spreadlets(i)
@@ -171,8 +173,8 @@ class AngleBank:
             K = angles_for_reach(reach, self.angle_error_px)
             k_of[i] = K
             cs = np.array([bank_cs(k, K) for k in range(K)])
-            if is_fast:
-                dense = turned_dense(psf, cs)
+            if is_fast:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array
+                dense = [d for a in range(0, K, 64) for d in turned_dense(psf, cs[a:a + 64])]
                 P_parts.append(np.zeros((0, 2), np.int16))
                 V_parts.append(np.zeros((0, ch), np.float32))
                 counts.extend([0] * K)

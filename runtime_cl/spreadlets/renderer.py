@@ -46,8 +46,8 @@ class Renderer:
         Longest run of same-cell pixels the splat kernels splat together (default 32; 1 splats
         pixel by pixel, as LSR18's one-thread-per-pixel loop). Applies to both splat methods.
     spreadlet_rotation : {"bilinear", "nearest", "bank"}
-        How turned spreadlets land on pixels when :meth:`render` gets an angle (``"bilinear"``,
-        ``"nearest"``: see :class:`~runtime_cl.spreadlets.splat.TileSplatter`). ``"bank"`` (default): the
+        How turned spreadlets land on pixels when :meth:`render` gets an angle (``"bilinear"``, the
+        default, ``"nearest"``: see :class:`~runtime_cl.spreadlets.splat.TileSplatter`). ``"bank"``: the
         spreadlets method splats every PSF (fast-tracked dense ones too) pre-turned at the
         nearest of a set of quantised angles (:mod:`runtime_cl.spreadlets.angle_bank`, built
         once per renderer); Splat and Filter still turn per pixel.

@@ -26,9 +26,10 @@ from runtime_cl.integrate.poisson import fft_friendly
 # 1196 (16), 774 (32), 684 (64), 613 (128); demo database: 1179 (32), 1021 (64), 770 (128).
 RUN_MAX = 128
 SPREADLET_ROTATIONS = ("bilinear", "nearest", "bank")
-# What the Renderer and the spreadlet passes use: turned PSFs from the angle bank (whirl 1024^2:
-# README "Where a spreadlet frame's time goes" for the speed and the SSIM it costs)
-DEFAULT_SPREADLET_ROTATION = "bank"
+# What the Renderer and the spreadlet passes use. "bank" (runtime_cl/spreadlets/angle_bank.py) is
+# opt-in: on whirl's database it holds 160 k turned PSFs at 0.25 px and takes minutes to build
+# (README "Where a spreadlet frame's time goes")
+DEFAULT_SPREADLET_ROTATION = "bilinear"
 
 
 @dataclass

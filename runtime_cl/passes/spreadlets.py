@@ -73,7 +73,12 @@ class SpreadletPass(RuntimePass):
         far = None if self.far is None else self.far.prepare(self.camera, frame.depth)
         coords = psf_coords(self.camera, frame.depth, self.db, motion)
         if self.layers == 1 and not self.layered_input:
-            return np.asarray(frame.rgb), coords, far, None
+            rgb = np.asarray(frame.rgb)
+            if coords.angle is not None and self.method == "spreadlets":   # per-pixel work: here
+                spread = rgb if coords.gain is None else rgb * coords.gain[..., None]
+                self.renderer.grow_bank(np.asarray(spread, np.float32), coords.coords,
+                                        np.asarray(coords.angle, np.float32))
+            return rgb, coords, far, None
         if any(x is not None for x in (coords.direct, coords.gain, coords.receive)):
             raise InputError(f"a {self.db.model!r} database adds each pixel's unscattered light on its own "
                              "pixel, which depth layers do not composite; render the flat image (layers = 1)")
@@ -110,7 +115,8 @@ class SpreadletPass(RuntimePass):
         rgb, coords, far, layered = prepared
         if layered is None:
             spread = rgb if coords.gain is None else rgb * coords.gain[..., None]
-            image, t = self.renderer.render(spread, coords.coords, self.method, angle=coords.angle)
+            image, t = self.renderer.render(spread, coords.coords, self.method, angle=coords.angle,
+                                            bank_checked=self.method == "spreadlets")
             if coords.receive is not None:
                 image = image * coords.receive[..., None]
             if coords.direct is not None:   # the unscattered light, exact per pixel (host work)

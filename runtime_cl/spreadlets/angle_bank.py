@@ -29,7 +29,7 @@ import numpy as np
 from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
 
-__all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_dense", "turned_spreadlets"]
+__all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_cells", "turned_dense", "turned_spreadlets"]
 
 # Largest displacement (px) of a PSF's farthest point by the angle rounding; see the module docstring
 # and README ("Where a spreadlet frame's time goes") for the SSIM it costs on whirl. At 0.5 px the
@@ -92,34 +92,60 @@ def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
     """A dense PSF ((2r+1, 2r+1, C), centre [r, r]) turned by each of cs ((K, 2)) as
     ``rotate.cl`` turns it: destination offset d takes the stored PSF bilinearly at R^-1 d (zero
     outside the crop's support |R^-1 d| < r + 1), scaled per channel to keep the stored sum.
-    Returns K float32 crops, each the smallest centred square holding its non-zero pixels."""
-    r = psf.shape[0] // 2
-    reach = int(math.floor((r + 1) * math.sqrt(2.0)))   # every turn's reach (rotate.cl turned_reach)
-    d = np.arange(-reach, reach + 1, dtype=np.float64)
-    dx, dy = np.meshgrid(d, d)
-    c, s = cs[:, 0, None, None], cs[:, 1, None, None]
-    sx, sy = c * dx - s * dy, s * dx + c * dy   # (K, side, side)
+    Only destinations within sqrt 2 of a turned non-zero pixel can be non-zero (bilinear support),
+    so only those are sampled (a thin streak: a few hundred per angle instead of its whole
+    turned square). Returns K float32 crops, each the smallest centred square holding its
+    non-zero pixels."""
+    r, ch = psf.shape[0] // 2, psf.shape[2]
+    K = len(cs)
+    ys, xs = np.nonzero(np.any(psf != 0, axis=2))
+    if not len(ys):
+        return [np.zeros((1, 1, ch), np.float32)] * K
+    sx0, sy0 = (xs - r).astype(np.float64), (ys - r).astype(np.float64)
+    c, s = cs[:, :1], cs[:, 1:]
+    fx, fy = c * sx0 + s * sy0, c * sy0 - s * sx0   # rotate_xy of the non-zero pixels, (K, m)
+    off = np.arange(-1, 3)
+    cx = (np.floor(fx)[:, :, None, None].astype(np.int64) + off[None, None, None, :])
+    cy = (np.floor(fy)[:, :, None, None].astype(np.int64) + off[None, None, :, None])
+    cx, cy = np.broadcast_arrays(cx, cy)
+    big = 2 * int(math.ceil((r + 3) * math.sqrt(2.0))) + 1
+    k = np.broadcast_to(np.arange(K)[:, None, None, None], cx.shape)
+    key = np.unique(((k * big + (cy + big // 2)) * big + (cx + big // 2)).ravel())
+    kk, rest = key // (big * big), key % (big * big)
+    dy, dx = (rest // big - big // 2).astype(np.float64), (rest % big - big // 2).astype(np.float64)
+    c, s = cs[kk, 0], cs[kk, 1]
+    sx, sy = c * dx - s * dy, s * dx + c * dy   # R^-1 d
     inside = (np.abs(sx) < r + 1) & (np.abs(sy) < r + 1)
     ix, iy = np.floor(sx).astype(np.int64), np.floor(sy).astype(np.int64)
-    wx, wy = (sx - ix)[..., None], (sy - iy)[..., None]
+    wx, wy = (sx - ix)[:, None], (sy - iy)[:, None]
     f = psf.astype(np.float64)
-    padded = np.zeros((f.shape[0] + 4, f.shape[1] + 4, f.shape[2]))
+    padded = np.zeros((f.shape[0] + 4, f.shape[1] + 4, ch))
     padded[2:-2, 2:-2] = f   # taps one outside the crop read zeros
 
     def tap(xx, yy):
         return padded[np.clip(yy + r + 2, 0, padded.shape[0] - 1), np.clip(xx + r + 2, 0, padded.shape[1] - 1)]
 
-    out = (tap(ix, iy) * ((1 - wx) * (1 - wy)) + tap(ix + 1, iy) * (wx * (1 - wy))
+    val = (tap(ix, iy) * ((1 - wx) * (1 - wy)) + tap(ix + 1, iy) * (wx * (1 - wy))
            + tap(ix, iy + 1) * ((1 - wx) * wy) + tap(ix + 1, iy + 1) * (wx * wy))
-    out[~inside] = 0.0
-    stored, turned = f.sum(axis=(0, 1)), out.sum(axis=(1, 2))   # (C,), (K, C)
+    val[~inside] = 0.0
+    stored = f.sum(axis=(0, 1))
+    turned = np.zeros((K, ch))
+    np.add.at(turned, kk, val)
     ok = (stored > 0) & (turned > 0)
-    out *= np.where(ok, stored / np.where(ok, turned, 1.0), 1.0)[:, None, None, :]
+    val *= np.where(ok, stored / np.where(ok, turned, 1.0), 1.0)[kk]
+    live = np.any(val != 0, axis=1)
+    kk, dx, dy, val = kk[live], dx[live].astype(np.int64), dy[live].astype(np.int64), val[live]
+    bounds = np.searchsorted(kk, np.arange(K + 1))
     crops = []
-    for t in out:
-        nz = np.argwhere(np.any(t != 0, axis=2))
-        keep = int(np.abs(nz - reach).max()) if len(nz) else 0
-        crops.append(t[reach - keep:reach + keep + 1, reach - keep:reach + keep + 1].astype(np.float32))
+    for a in range(K):
+        lo, hi = bounds[a], bounds[a + 1]
+        if lo == hi:
+            crops.append(np.zeros((1, 1, ch), np.float32))
+            continue
+        keep = int(max(np.abs(dx[lo:hi]).max(), np.abs(dy[lo:hi]).max()))
+        crop = np.zeros((2 * keep + 1, 2 * keep + 1, ch), np.float32)
+        crop[dy[lo:hi] + keep, dx[lo:hi] + keep] = val[lo:hi]
+        crops.append(crop)
     return crops
 
 
@@ -131,6 +157,18 @@ def row_spans(dense: np.ndarray) -> np.ndarray:
     first = np.where(has, np.argmax(nz, axis=1), 0)
     end = np.where(has, side - np.argmax(nz[:, ::-1], axis=1), 0)
     return np.column_stack([first, end])
+
+
+def turned_cells(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """(n,) bool: the cells of the lit pixels whose angle is no multiple of 90 degrees (the
+    turns :class:`AngleBank` must hold at every angle; ``rotation_cs``'s 2^-19 rad tolerance)."""
+    a = np.fmod(angle.astype(np.float64), 2.0 * math.pi)
+    off = np.abs(a - np.rint(a / (0.5 * math.pi)) * (0.5 * math.pi)) > 2.0 ** -19
+    lit = np.any(colour != 0, axis=2) & off
+    out = np.zeros(db.n_samples, bool)
+    if lit.any():
+        out[np.unique(db.grid.index(np.asarray(coords[lit], np.float64)))] = True
+    return out
 
 
 class AngleBank:
@@ -149,15 +187,21 @@ class AngleBank:
     angle_error_px : float
         Largest displacement of a cell's farthest point by the angle rounding (> 0; default
         :data:`ANGLE_ERROR_PX`).
+    cells : ndarray of bool (n,), optional
+        The cells to turn by every angle; the others get only the four quarter turns (exact
+        for angles that are multiples of 90 degrees, e.g. the ``coc_sign`` symmetry's 0 and
+        pi). Default: every cell. The :class:`~runtime_cl.spreadlets.renderer.Renderer` passes
+        the cells its frames turn by other angles, so a bank holds what is drawn.
     """
 
-    def __init__(self, db: SpreadletDatabase, angle_error_px: float = ANGLE_ERROR_PX):
+    def __init__(self, db: SpreadletDatabase, angle_error_px: float = ANGLE_ERROR_PX, cells=None):
         if isinstance(angle_error_px, bool) or not (isinstance(angle_error_px, (int, float))
                                                     and 0.01 <= angle_error_px <= 10.0):
             raise InputError(f"angle_error_px = {angle_error_px!r}: must be a number in [0.01, 10] px "
                              "(the largest displacement of a PSF point by the angle rounding)")
         self.angle_error_px = float(angle_error_px)
         n, ch = db.n_samples, db.channels
+        self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
         k_of = np.zeros(n, np.int32)
         P_parts, V_parts, counts, fast, radii, dense_parts = [], [], [], [], [], []
         for i in range(n):
@@ -170,7 +214,7 @@ class AngleBank:
             else:
                 p, v = db.spreadlets(i)
                 reach = float(np.sqrt((p.astype(np.float64) ** 2).sum(axis=1)).max()) if len(p) else 0.0
-            K = angles_for_reach(reach, self.angle_error_px)
+            K = angles_for_reach(reach, self.angle_error_px) if self.cells[i] else 4
             k_of[i] = K
             cs = np.array([bank_cs(k, K) for k in range(K)])
             if is_fast:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array

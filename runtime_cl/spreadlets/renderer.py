@@ -25,7 +25,7 @@ from runtime_cl.spreadlets.highlights import HDR_RATIO, bright_pixels, splat_hig
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
-from runtime_cl.spreadlets.angle_bank import AngleBank
+from runtime_cl.spreadlets.angle_bank import AngleBank, turned_cells
 from runtime_cl.spreadlets.splat import DEFAULT_SPREADLET_ROTATION, RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
 
 
@@ -89,10 +89,26 @@ class Renderer:
 
     @property
     def angle_bank(self):
-        """The database's :class:`~runtime_cl.spreadlets.angle_bank.AngleBank` (built on first use)."""
+        """The :class:`~runtime_cl.spreadlets.angle_bank.AngleBank` of the cells this renderer's
+        frames turned so far (every cell if :meth:`render` has not built one)."""
         if self._bank is None:
             self._bank = AngleBank(self.db)
         return self._bank
+
+    def grow_bank(self, colour, coords, angle) -> None:
+        """With ``spreadlet_rotation="bank"``: rebuild the bank (and drop the splatters holding
+        it) when this frame (float32 arrays as :meth:`render` takes them) turns cells by angles
+        the bank lacks; it holds the union of every frame's turned cells. :meth:`render` calls it
+        unless told the caller did (``bank_checked``): it is per-pixel work (~80 ms at 1024^2)."""
+        if self.spreadlet_rotation != "bank" or self.rotation_invariant:
+            return
+        need = turned_cells(self.db, colour, coords, angle)
+        if self._bank is not None and not np.any(need & ~self._bank.cells):
+            return
+        if self._bank is not None:
+            need |= self._bank.cells
+        self._bank = AngleBank(self.db, cells=need)
+        self._wrappers = {k: v for k, v in self._wrappers.items() if getattr(v, "bank", None) is None}
 
     def _wrapper(self, method: str, channels: int, rotate: bool, half: bool = False):
         key = (method, channels, rotate, half)
@@ -116,7 +132,7 @@ class Renderer:
                              "give every pixel a finite angle in radians (0: no rotation)")
         return a
 
-    def render(self, colour, coords, method: str = "spreadlets", angle=None) -> tuple:
+    def render(self, colour, coords, method: str = "spreadlets", angle=None, bank_checked: bool = False) -> tuple:
         """Render one image.
 
         Parameters
@@ -139,6 +155,9 @@ class Renderer:
             each PSF's energy (``kernels/spreadlets/rotate.cl``). Multiples of 90 degrees are exact
             permutations. Default None: no rotation, the unrotated kernels. Ignored for a
             database whose only symmetry is ``rotation`` (:attr:`rotation_invariant`).
+        bank_checked : bool
+            The caller passed this frame to :meth:`grow_bank` (the spreadlet passes do, in their
+            ``prepare``); default False: :meth:`render` does.
 
         Returns
         -------
@@ -185,6 +204,9 @@ class Renderer:
         lit = colour if bright is None else np.where(bright[..., None], np.float32(0), colour)
 
         builds_before = len(self.device.builds)
+        if rotate and not half and METHODS[method].splats_spreadlets and self.spreadlet_rotation == "bank":
+            if not bank_checked:
+                self.grow_bank(lit, coords, angle)
         wrapper = self._wrapper(method, ch, rotate, half)
         compile_ms = sum(b.ms for b in self.device.builds[builds_before:])
 

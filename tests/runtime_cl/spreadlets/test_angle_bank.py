@@ -133,3 +133,27 @@ def test_bad_angle_error(bad):
     db = capsule_database()
     with pytest.raises(InputError, match="angle_error_px"):
         AngleBank(db, angle_error_px=bad)
+
+
+def test_the_bank_grows_with_the_cells_frames_turn():
+    """A renderer banks only the cells its frames turn by other than quarter turns (the rest get
+    the four exact quarter turns); a frame turning new cells rebuilds it, and every frame renders
+    as with a bank of every cell (same entries, so bitwise)."""
+    rng = np.random.default_rng(7)
+    db = random_database(rng, r_max=6, fast=0.3, spreadlets=(5, 40))
+    h, w = 17, 19
+    colour = rng.random((h, w, 3)).astype(np.float32)
+    low = (rng.random((h, w, 1)) * 2).astype(np.float32)          # the first cells only
+    high = (4 + rng.random((h, w, 1)) * 2).astype(np.float32)      # others
+    angle = rng.uniform(-3, 3, (h, w)).astype(np.float32)
+    angle[::2] = np.float32(np.pi)
+    lazy = Renderer(db, spreadlet_rotation="bank")
+    full = Renderer(db, spreadlet_rotation="bank")
+    full._bank = AngleBank(db)
+    for coords in (low, high, low):
+        a, _ = lazy.render(colour, coords, "spreadlets", angle=angle)
+        b, _ = full.render(colour, coords, "spreadlets", angle=angle)
+        np.testing.assert_array_equal(a, b)
+    turned = np.unique(cells(db, np.concatenate([low, high])[np.tile(angle[::1] != np.float32(np.pi), (2, 1))]))
+    assert set(np.flatnonzero(lazy._bank.cells)) == set(turned)
+    assert (lazy._bank.angles[~lazy._bank.cells] == 4).all()

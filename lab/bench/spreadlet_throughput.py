@@ -140,8 +140,8 @@ def rotation(height: int = 1024, width: int = 1024, r_max: float = 100.0, sample
     each method without an angle, then with two angle fields: ``constant`` (0.3 rad everywhere:
     runs of same-cell pixels survive, so this is the cost of the turning arithmetic) and
     ``per_pixel`` (each pixel's azimuth about the image centre, as a ``physical_lens``
-    database needs: every run is one pixel long). Spreadlets are turned both ways
-    (``bilinear``, ``nearest``); the unrotated kernel pixel by pixel (``run_max`` 1) shows how
+    database needs: every run is one pixel long). Spreadlets are turned three ways
+    (``bilinear``, ``nearest``, ``bank``: pre-turned at quantised angles); the unrotated kernel pixel by pixel (``run_max`` 1) shows how
     much of the per-pixel cost is the lost runs. Renders are interleaved, best of ``repeats``.
 
     Returns
@@ -156,8 +156,8 @@ def rotation(height: int = 1024, width: int = 1024, r_max: float = 100.0, sample
     yy, xx = np.mgrid[0:height, 0:width]
     angles = {"constant": np.full((height, width), 0.3, np.float32),
               "per_pixel": np.arctan2(height / 2 - yy - 0.5, xx + 0.5 - width / 2).astype(np.float32)}
-    renderers = {"bilinear": Renderer(db, device), "nearest": Renderer(db, device, spreadlet_rotation="nearest"),
-                 "run_max_1": Renderer(db, device, run_max=1)}
+    renderers = {how: Renderer(db, device, spreadlet_rotation=how) for how in ("bilinear", "nearest", "bank")}
+    renderers["run_max_1"] = Renderer(db, device, run_max=1, spreadlet_rotation="bilinear")
     configs = []
     for method in methods:
         spreadlets = METHODS[method].splats_spreadlets     # turned two ways, runs matter
@@ -165,7 +165,7 @@ def rotation(height: int = 1024, width: int = 1024, r_max: float = 100.0, sample
         if spreadlets:
             configs.append((method, "unrotated_run_max_1", "run_max_1", None))
         for field in angles:
-            for how in (("bilinear", "nearest") if spreadlets else ("bilinear",)):
+            for how in (("bilinear", "nearest", "bank") if spreadlets else ("bilinear",)):
                 configs.append((method, f"{field}_{how}" if spreadlets else field, how, field))
     best: dict = {}
     for rep in range(repeats + 1):  # the first round warms up (kernel builds)

@@ -25,7 +25,7 @@ from runtime_cl.passes.registry import RuntimePass, integrating_passes, register
 from runtime_cl.psf.far_field import FarField
 from runtime_cl.spreadlets.layers import SpreadletLayerSplatter
 from runtime_cl.spreadlets.renderer import Renderer
-from runtime_cl.spreadlets.splat import RUN_MAX
+from runtime_cl.spreadlets.splat import DEFAULT_SPREADLET_ROTATION, RUN_MAX
 from runtime_cl.timing import CallTimes
 
 __all__ = ["SpreadletPass", "SpreadletsPass", "SplatPass", "FilterPass"]
@@ -51,7 +51,7 @@ class SpreadletPass(RuntimePass):
     layered = True
     far_field = True
 
-    def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
+    def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = DEFAULT_SPREADLET_ROTATION,
                   far_field=None, integrator: str = DEFAULT_INTEGRATOR, layered_input: bool = False,
                   soft_layers: float = 0.0, hdr_ratio="default"):
         get_integrator(integrator)   # an unknown name is an error for every pass
@@ -73,7 +73,12 @@ class SpreadletPass(RuntimePass):
         far = None if self.far is None else self.far.prepare(self.camera, frame.depth)
         coords = psf_coords(self.camera, frame.depth, self.db, motion)
         if self.layers == 1 and not self.layered_input:
-            return np.asarray(frame.rgb), coords, far, None
+            rgb = np.asarray(frame.rgb)
+            if coords.angle is not None and self.method == "spreadlets":   # per-pixel work: here
+                spread = rgb if coords.gain is None else rgb * coords.gain[..., None]
+                self.renderer.grow_bank(np.asarray(spread, np.float32), coords.coords,
+                                        np.asarray(coords.angle, np.float32))
+            return rgb, coords, far, None
         if any(x is not None for x in (coords.direct, coords.gain, coords.receive)):
             raise InputError(f"a {self.db.model!r} database adds each pixel's unscattered light on its own "
                              "pixel, which depth layers do not composite; render the flat image (layers = 1)")
@@ -110,7 +115,8 @@ class SpreadletPass(RuntimePass):
         rgb, coords, far, layered = prepared
         if layered is None:
             spread = rgb if coords.gain is None else rgb * coords.gain[..., None]
-            image, t = self.renderer.render(spread, coords.coords, self.method, angle=coords.angle)
+            image, t = self.renderer.render(spread, coords.coords, self.method, angle=coords.angle,
+                                            bank_checked=self.method == "spreadlets")
             if coords.receive is not None:
                 image = image * coords.receive[..., None]
             if coords.direct is not None:   # the unscattered light, exact per pixel (host work)

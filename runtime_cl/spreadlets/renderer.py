@@ -25,7 +25,8 @@ from runtime_cl.spreadlets.highlights import HDR_RATIO, bright_pixels, splat_hig
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
-from runtime_cl.spreadlets.splat import RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
+from runtime_cl.spreadlets.angle_bank import AngleBank, turned_cells
+from runtime_cl.spreadlets.splat import DEFAULT_SPREADLET_ROTATION, RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
 
 
 
@@ -44,9 +45,12 @@ class Renderer:
     run_max : int
         Longest run of same-cell pixels the splat kernels splat together (default 32; 1 splats
         pixel by pixel, as LSR18's one-thread-per-pixel loop). Applies to both splat methods.
-    spreadlet_rotation : {"bilinear", "nearest"}
-        How turned spreadlets land on pixels when :meth:`render` gets an angle (default
-        ``"bilinear"``; see :class:`~runtime_cl.spreadlets.splat.TileSplatter`).
+    spreadlet_rotation : {"bilinear", "nearest", "bank"}
+        How turned spreadlets land on pixels when :meth:`render` gets an angle (``"bilinear"``, the
+        default, ``"nearest"``: see :class:`~runtime_cl.spreadlets.splat.TileSplatter`). ``"bank"``: the
+        spreadlets method splats every PSF (fast-tracked dense ones too) pre-turned at the
+        nearest of a set of quantised angles (:mod:`runtime_cl.spreadlets.angle_bank`, built
+        once per renderer); Splat and Filter still turn per pixel.
     integrator : str
         How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
         (:func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``, the float32 FFT;
@@ -61,7 +65,7 @@ class Renderer:
     """
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
-                 run_max: int = RUN_MAX, spreadlet_rotation: str = "bilinear",
+                 run_max: int = RUN_MAX, spreadlet_rotation: str = DEFAULT_SPREADLET_ROTATION,
                  integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False,
                  hdr_ratio: float | None = HDR_RATIO):
         integrator_class = get_integrator(integrator)   # an unknown name fails before any upload
@@ -81,6 +85,30 @@ class Renderer:
             raise InputError(f"hdr_ratio = {hdr_ratio!r}: must be a number >= 1 (or None: no dense highlights)")
         self.hdr_ratio = hdr_ratio
         self._wrappers: dict = {}
+        self._bank = None
+
+    @property
+    def angle_bank(self):
+        """The :class:`~runtime_cl.spreadlets.angle_bank.AngleBank` of the cells this renderer's
+        frames turned so far (every cell if :meth:`render` has not built one)."""
+        if self._bank is None:
+            self._bank = AngleBank(self.db)
+        return self._bank
+
+    def grow_bank(self, colour, coords, angle) -> None:
+        """With ``spreadlet_rotation="bank"``: rebuild the bank (and drop the splatters holding
+        it) when this frame (float32 arrays as :meth:`render` takes them) turns cells by angles
+        the bank lacks; it holds the union of every frame's turned cells. :meth:`render` calls it
+        unless told the caller did (``bank_checked``): it is per-pixel work (~80 ms at 1024^2)."""
+        if self.spreadlet_rotation != "bank" or self.rotation_invariant:
+            return
+        need = turned_cells(self.db, colour, coords, angle)
+        if self._bank is not None and not np.any(need & ~self._bank.cells):
+            return
+        if self._bank is not None:
+            need |= self._bank.cells
+        self._bank = AngleBank(self.db, cells=need)
+        self._wrappers = {k: v for k, v in self._wrappers.items() if getattr(v, "bank", None) is None}
 
     def _wrapper(self, method: str, channels: int, rotate: bool, half: bool = False):
         key = (method, channels, rotate, half)
@@ -104,7 +132,7 @@ class Renderer:
                              "give every pixel a finite angle in radians (0: no rotation)")
         return a
 
-    def render(self, colour, coords, method: str = "spreadlets", angle=None) -> tuple:
+    def render(self, colour, coords, method: str = "spreadlets", angle=None, bank_checked: bool = False) -> tuple:
         """Render one image.
 
         Parameters
@@ -127,6 +155,9 @@ class Renderer:
             each PSF's energy (``kernels/spreadlets/rotate.cl``). Multiples of 90 degrees are exact
             permutations. Default None: no rotation, the unrotated kernels. Ignored for a
             database whose only symmetry is ``rotation`` (:attr:`rotation_invariant`).
+        bank_checked : bool
+            The caller passed this frame to :meth:`grow_bank` (the spreadlet passes do, in their
+            ``prepare``); default False: :meth:`render` does.
 
         Returns
         -------
@@ -173,6 +204,9 @@ class Renderer:
         lit = colour if bright is None else np.where(bright[..., None], np.float32(0), colour)
 
         builds_before = len(self.device.builds)
+        if rotate and not half and METHODS[method].splats_spreadlets and self.spreadlet_rotation == "bank":
+            if not bank_checked:
+                self.grow_bank(lit, coords, angle)
         wrapper = self._wrapper(method, ch, rotate, half)
         compile_ms = sum(b.ms for b in self.device.builds[builds_before:])
 
@@ -212,8 +246,10 @@ class _Spreadlets:
 
     @classmethod
     def wrapper(cls, r: Renderer, channels: int, rotate: bool, half: bool = False):
+        banked = rotate and not half and not cls.dense_all and r.spreadlet_rotation == "bank"
         return TileSplatter(r.ddb, channels, dense_all=cls.dense_all, run_max=r.run_max, rotate=rotate,
-                            spreadlet_rotation=r.spreadlet_rotation, half_turns=half)
+                            spreadlet_rotation=r.spreadlet_rotation, half_turns=half,
+                            bank=r.angle_bank if banked else None)
 
     @classmethod
     def run(cls, r: Renderer, wrapper, colour_buf, coords_buf, h, w, angle_buf):

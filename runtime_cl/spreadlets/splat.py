@@ -17,6 +17,7 @@ import numpy as np
 
 from runtime_cl.device.opencl import event_ms
 from runtime_cl.psf.upload import DeviceDatabase
+from runtime_cl.spreadlets.angle_bank import AngleBank
 from runtime_cl.errors import InputError
 from runtime_cl.integrate.poisson import fft_friendly
 
@@ -24,7 +25,11 @@ from runtime_cl.integrate.poisson import fft_friendly
 # pixel (LSR18's loop). Defocus scene, 1024^2 RGB, 128^2 tiles, CPU ms of the spreadlet kernel:
 # 1196 (16), 774 (32), 684 (64), 613 (128); demo database: 1179 (32), 1021 (64), 770 (128).
 RUN_MAX = 128
-SPREADLET_ROTATIONS = ("bilinear", "nearest")
+SPREADLET_ROTATIONS = ("bilinear", "nearest", "bank")
+# What the Renderer and the spreadlet passes use. "bank" (runtime_cl/spreadlets/angle_bank.py) is
+# opt-in: on whirl's database it holds 160 k turned PSFs at 0.25 px and takes minutes to build
+# (README "Where a spreadlet frame's time goes")
+DEFAULT_SPREADLET_ROTATION = "bilinear"
 
 
 @dataclass
@@ -105,10 +110,15 @@ class TileSplatter:
         Turn every pixel's PSF by its angle (``kernels/spreadlets/rotate.cl``; :meth:`run` then needs an
         angle buffer). The canvas padding grows to :attr:`SpreadletDatabase.rotated_pad`.
         Default False: the unrotated kernel, which never reads an angle.
-    spreadlet_rotation : {"bilinear", "nearest"}
+    spreadlet_rotation : {"bilinear", "nearest", "bank"}
         With ``rotate``: how a turned spreadlet lands on the pixel grid (default ``"bilinear"``:
         shared among four pixels; ``"nearest"``: the nearest one, LSR18's cheaper way, with
-        errors of 10-50 % of the PSF, see ``splat_spreadlets_rotated`` in ``kernels/spreadlets/splat.cl``).
+        errors of 10-50 % of the PSF, see ``splat_spreadlets_rotated`` in ``kernels/spreadlets/splat.cl``;
+        ``"bank"``: every PSF pre-turned at quantised angles, ``bank`` below).
+    bank : AngleBank, optional
+        With ``spreadlet_rotation="bank"`` (spreadlets only, not ``half_turns``): the turned PSFs
+        (:class:`runtime_cl.spreadlets.angle_bank.AngleBank`); a pixel splats, unturned, the
+        entry of the angle nearest its own. Default: built here from the database.
     half_turns : bool
         With ``rotate``: the caller promises every angle is 0 or +-pi (float32), as the
         ``coc_sign`` symmetry alone gives (:func:`half_turns`). A half turn maps the stored
@@ -118,7 +128,8 @@ class TileSplatter:
     """
 
     def __init__(self, ddb: DeviceDatabase, colour_channels: int, dense_all: bool, run_max: int = RUN_MAX,
-                 rotate: bool = False, spreadlet_rotation: str = "bilinear", half_turns: bool = False):
+                 rotate: bool = False, spreadlet_rotation: str = "bilinear", half_turns: bool = False,
+                 bank=None):
         import pyopencl as cl
 
         if colour_channels not in (1, 3, 4):
@@ -137,21 +148,46 @@ class TileSplatter:
         self.groups = 2 if has_fast else 1
         self.rotate = bool(rotate)
         self.half_turns = self.rotate and bool(half_turns)
+        self.bank = None
+        if self.rotate and not self.half_turns and not self.dense_all and spreadlet_rotation == "bank":
+            self.bank = bank if bank is not None else AngleBank(ddb.db)
+        turns = self.rotate and self.bank is None   # the kernel turns PSFs per pixel (rotate.cl)
         self.pad = ddb.db.rotated_pad if self.rotate and not self.half_turns else ddb.db.pad
+        if self.bank is not None:
+            self.pad = self.bank.pad
         options = ddb.base_options + [f"-DPAD={self.pad}", f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
                                       f"-DDENSE_ALL={int(self.dense_all)}", f"-DHAS_FAST={int(has_fast)}",
                                       f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}",
-                                      f"-DROTATE={int(self.rotate)}",
+                                      f"-DROTATE={int(turns)}", f"-DBANK={int(self.bank is not None)}",
                                       f"-DSPREADLET_BILINEAR={int(spreadlet_rotation == 'bilinear')}"]
-        rotate = ("spreadlets/rotate.cl",) if self.rotate else ()
+        rotate = ("spreadlets/rotate.cl",) if turns else ()
+        self.turns = turns
+        self._bank_buffers = self._upload_bank() if self.bank is not None else {}
         files = ("psf/psf_space.cl", "prelude/pixels.cl") + rotate + ("spreadlets/splat.cl",)
         program, self.build = self.device.program(files, options)
         self.splat_kernel = cl.Kernel(program, "splat_tiles")
-        self.splat_kernel.set_scalar_arg_dtypes([None] * 20 + [np.int32] * 5)
+        self.splat_kernel.set_scalar_arg_dtypes([None] * 22 + [np.int32] * 5)
         self.merge_kernel = cl.Kernel(program, "merge_tiles")
         self.merge_kernel.set_scalar_arg_dtypes([None, None] + [np.int32] * 6)
         self._scratch: dict = {}
         self.device.warm_up(self.build, self._warm_up)
+
+    def _upload_bank(self) -> dict:
+        """The bank's arrays on the device, under the database buffers' names they replace."""
+        import pyopencl as cl
+
+        bank = self.bank
+        host = {"C": self.bank.C, "P": self.bank.P, "V": self.bank.V, "fast": self.bank.fast,
+                "dense_r": self.bank.dense_r, "dense_off": self.bank.dense_off, "dense_v": self.bank.dense_v,
+                "span_off": bank.span_off, "span": bank.span, "dense_n": bank.dense_n,
+                "bank_k": self.bank.angles, "bank_base": self.bank.base}
+        flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
+        out = {}
+        for name, array in host.items():
+            array = np.ascontiguousarray(array)
+            out[name] = cl.Buffer(self.device.context, flags, hostbuf=array) if array.nbytes else \
+                cl.Buffer(self.device.context, cl.mem_flags.READ_ONLY, 16)
+        return out
 
     def _warm_up(self):
         import pyopencl as cl
@@ -232,12 +268,14 @@ class TileSplatter:
         tiles_buf = self._buffer("tiles", nbytes)
         counts_buf = self._buffer("counts", ntiles * 16)
         # each work item's turned dense PSF: values and row headers (splat.cl splat_dense_rotated)
-        scratch = ntiles * (2 * pad + 1) * (2 * pad + 2) * 16 if self.rotate and not self.half_turns else 16
+        scratch = ntiles * (2 * pad + 1) * (2 * pad + 2) * 16 if self.turns and not self.half_turns else 16
         scratch_buf = self._buffer("turned", scratch)
         canvas_buf = self._buffer("canvas", self.groups * hc * wc * oc * 4)
-        b, q = self.ddb.buffers, self.device.queue
+        b, q = dict(self.ddb.buffers, **self._bank_buffers), self.device.queue
+        no_bank = self._buffer("no_bank", 16)   # read only by a bank kernel
         ev_splat = self.splat_kernel(
-            q, (ntiles,), (1,), colour_buf, coords_buf, angle_buf, b["psf_thr"], b["psf_bucket"], b["C"], b["P"],
+            q, (ntiles,), (1,), colour_buf, coords_buf, angle_buf, b.get("bank_k", no_bank),
+            b.get("bank_base", no_bank), b["psf_thr"], b["psf_bucket"], b["C"], b["P"],
             b["V"], b["fast"], b["dense_r"], b["dense_off"], b["dense_v"], b["span_off"], b["span"], b["dense_n"],
             b["dense_sum"], b["dense_box"], tiles_buf, counts_buf, scratch_buf,
             height, width, tw, th, tiles_x)

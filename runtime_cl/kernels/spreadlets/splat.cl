@@ -40,6 +40,10 @@
 //                angle and dense_sum buffers are not read, the code is the unrotated one.
 //   SPREADLET_BILINEAR  (with ROTATE) 1: turned spreadlets are shared bilinearly among four
 //                pixels, 0: moved to the nearest pixel (splat_spreadlets_rotated)
+//   BANK         1 (with ROTATE 0): the database buffers hold an angle bank
+//                (runtime_cl/spreadlets/angle_bank.py): cell i turned by 2 pi k / bank_k[i] is
+//                entry bank_base[i] + k; a pixel takes the entry of the angle nearest its own and
+//                splats it unturned. Runs then need the same cell and angle index.
 
 #define DENSE_GROUP (DENSE_ALL ? 0 : 1)
 #ifndef RUN_MAX
@@ -50,6 +54,25 @@
 #endif
 #ifndef SPREADLET_BILINEAR
 #define SPREADLET_BILINEAR 1
+#endif
+#ifndef BANK
+#define BANK 0
+#endif
+
+#if BANK
+// The bank entry of cell for angle a (radians): the nearest of its K angles 2 pi k / K. The
+// rounding is done by adding 1.5 * 2^23 (rint is a library call on PoCL; |t| <= K < 2^22).
+inline int bank_entry(const int cell, const float angle, __global const int *bank_k,
+                      __global const int *bank_base) {
+    const int K = bank_k[cell];
+    const float t = fmod(angle, 2.0f * M_PI_F) * ((float)K * (0.5f * M_1_PI_F));
+    int k = (int)((t + 0x1.8p23f) - 0x1.8p23f) % K;
+    if (k < 0) k += K;
+    return bank_base[cell] + k;
+}
+#define CELL_AT(i) bank_entry(psf_cell(coords + (i) * PSF_NS, psf_thr, psf_bucket), angle[i], bank_k, bank_base)
+#else
+#define CELL_AT(i) psf_cell(coords + (i) * PSF_NS, psf_thr, psf_bucket)
 #endif
 
 // vectors of 2 and 4 float4 pixels at float4 alignment (vload8/vload16 are calls on PoCL)
@@ -93,10 +116,18 @@ inline void splat_run(__global pix_t *dst, const pix_t v, const pix_t *run_col, 
 inline void splat_dense(__global pix_t *dst, const int buf_w, const pix_t *run_col, const int n,
                         const int r, __global const float *dv, __global const int2 *span) {
     const int side = 2 * r + 1;
+#if BANK
+    long at = 0;   // a bank stores each row's span only, rows one after another (angle_bank.py)
+#endif
     for (int oy = 0; oy < side; ++oy) {
         const int2 s = span[oy];
         __global pix_t *row = dst + (long)oy * buf_w + s.x;
+#if BANK
+        __global const float *dvrow = dv + at * DC;
+        at += s.y - s.x;
+#else
         __global const float *dvrow = dv + ((long)oy * side + s.x) * DC;
+#endif
         for (int k = 0; k < n; ++k) dense_row(row + k, run_col[k], s.y - s.x, dvrow);
     }
 }
@@ -197,7 +228,9 @@ inline void splat_dense_rotated(__global pix_t *dst, const int buf_w, const pix_
 
 __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                           __global const float *coords,      // (H, W, PSF_NS)
-                          __global const float *angle,       // (H, W) radians (read if ROTATE)
+                          __global const float *angle,       // (H, W) radians (read if ROTATE or BANK)
+                          __global const int *bank_k,        // (cells,) angles per cell (read if BANK)
+                          __global const int *bank_base,     // (cells,) first bank entry (read if BANK)
                           __global const PSF_REAL *psf_thr,
                           __global const int *psf_bucket,
                           __global const long *C,            // (n+1,)
@@ -240,7 +273,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                 next_cell = -1;
                 continue;
             }
-            const int cell = next_cell >= 0 ? next_cell : psf_cell(coords + i * PSF_NS, psf_thr, psf_bucket);
+            const int cell = next_cell >= 0 ? next_cell : CELL_AT(i);
             next_cell = -1;
 #if ROTATE
             const float a = angle[i];
@@ -251,7 +284,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
             while (n < RUN_MAX && x + n < x1) {
                 const pix_t c = COLOUR(colour, i + n);
                 if (IS_ZERO(c)) break;
-                const int cn = psf_cell(coords + (i + n) * PSF_NS, psf_thr, psf_bucket);
+                const int cn = CELL_AT(i + n);
 #if ROTATE
                 if (cn != cell || angle[i + n] != a) {
 #else

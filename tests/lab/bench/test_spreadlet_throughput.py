@@ -81,7 +81,8 @@ def test_rotation_benchmark_reports_ratios():
     out = rotation(32, 40, r_max=6.0, samples=8, repeats=1)
     ms, ratios = out["kernel_ms"], out["ratios"]
     assert set(ms) == {"spreadlets/unrotated", "spreadlets/unrotated_run_max_1", "spreadlets/constant_bilinear",
-                       "spreadlets/constant_nearest", "spreadlets/per_pixel_bilinear", "spreadlets/per_pixel_nearest"}
+                       "spreadlets/constant_nearest", "spreadlets/per_pixel_bilinear", "spreadlets/per_pixel_nearest",
+                       "spreadlets/constant_bank", "spreadlets/per_pixel_bank"}
     assert all(v > 0 for v in ms.values())
     key = "spreadlets/per_pixel_nearest"
     assert ratios[f"{key}_over_unrotated"] == ms[key] / ms["spreadlets/unrotated"]

@@ -2,7 +2,8 @@
 against scipy and plain numpy, energy, runs, bad input.
 
 Angles turn the PSF counter-clockwise as the image is viewed (image +x towards y up), the way
-``np.rot90`` turns an array whose rows grow downward.
+``np.rot90`` turns an array whose rows grow downward. These check the per-pixel turn
+(``spreadlet_rotation="bilinear"``); the angle bank, the default, is checked in test_angle_bank.py.
 """
 import dataclasses
 
@@ -36,14 +37,14 @@ def full(size, degrees):
 
 @pytest.fixture(scope="module")
 def capsule():
-    return Renderer(capsule_database(radius=4.0, length=10.0))
+    return Renderer(capsule_database(radius=4.0, length=10.0), spreadlet_rotation="bilinear")
 
 
 @pytest.mark.parametrize("fast", [False, True])
 @pytest.mark.parametrize("k,degrees", [(1, 90.0), (2, 180.0), (3, 270.0), (3, -90.0), (0, 360.0)])
 def test_quarter_turns_are_rot90(fast, k, degrees):
     db = capsule_database(fast=fast, skew=0.6)  # no turn or flip of it looks the same
-    renderer = Renderer(db)
+    renderer = Renderer(db, spreadlet_rotation="bilinear")
     colour, coords = lit_pixel(db)
     for method in METHODS:
         plain, _ = renderer.render(colour, coords, method)
@@ -61,7 +62,7 @@ def test_quarter_turns_of_the_laplacian_canvas_are_exact():
     import pyopencl as cl
 
     db = laplacian_database(np.random.default_rng(3), r_max=6, channels=3)
-    renderer = Renderer(db)
+    renderer = Renderer(db, spreadlet_rotation="bilinear")
     splatter = TileSplatter(renderer.ddb, 3, dense_all=False, rotate=True)
     colour, coords = lit_pixel(db, size=33, channels=3)
     coords[:] = 5.0
@@ -117,7 +118,7 @@ def test_energy_is_kept(degrees):
     rgb = dataclasses.replace(db, channels=3, V=np.repeat(db.V, 3, axis=1) * [1.0, 0.5, 2.0],
                               dense_values=np.repeat(db.dense_values, 3, axis=1) * [1.0, 0.5, 2.0],
                               checksum=None, path=None)
-    renderer = Renderer(rgb)
+    renderer = Renderer(rgb, spreadlet_rotation="bilinear")
     colour, coords = lit_pixel(rgb, size=61)
     for method in METHODS:
         plain, _ = renderer.render(colour, coords, method)
@@ -137,7 +138,7 @@ def test_turned_dense_methods_match_numpy(db_channels, cc):
     coords = (rng.random((h, w, 1)) * 5).astype(np.float32)
     angle = rng.uniform(-7, 7, (h, w)).astype(np.float32)
     angle[:4] = np.radians(90.0 * rng.integers(-4, 5, (4, w)))  # some quarter turns
-    renderer = Renderer(db)
+    renderer = Renderer(db, spreadlet_rotation="bilinear")
     for method, reference in (("splat", turned_splat_image), ("filter", turned_filter_image)):
         image, t = renderer.render(colour, coords, method, angle=angle)
         want = reference(db, colour, coords, angle)
@@ -169,7 +170,7 @@ def test_turned_streaks_match_numpy():
     coords = (rng.random((h, w, 1)) * 9).astype(np.float32)
     angle = rng.uniform(-7, 7, (h, w)).astype(np.float32)
     angle[:3] = (np.pi / 2 * rng.integers(-4, 5, (3, 1)) + rng.choice([1e-4, -1e-4, 1e-2], (3, w))).astype(np.float32)
-    renderer = Renderer(db)
+    renderer = Renderer(db, spreadlet_rotation="bilinear")
     for method, reference in (("splat", turned_splat_image), ("filter", turned_filter_image)):
         image, _ = renderer.render(colour, coords, method, angle=angle)
         want = reference(db, colour, coords, angle)
@@ -187,7 +188,7 @@ def test_turned_spreadlet_canvas_matches_numpy(how):
     coords = (rng.random((h, w, 1)) * 6).astype(np.float32)
     angle = rng.uniform(-4, 4, (h, w)).astype(np.float32)
     angle[::3] = np.radians(180.0)
-    renderer = Renderer(db)
+    renderer = Renderer(db, spreadlet_rotation="bilinear")
     splatter = TileSplatter(renderer.ddb, 3, dense_all=False, rotate=True, spreadlet_rotation=how)
     ctx = renderer.device.context
     flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
@@ -235,7 +236,7 @@ def test_bad_angles_are_input_errors(capsule):
     bad[2, 3], bad[4, 4] = np.nan, np.inf
     with pytest.raises(InputError, match="angle: 2 value.*NaN or infinite.*radians"):
         capsule.render(colour, coords, angle=bad)
-    with pytest.raises(InputError, match=r"spreadlet_rotation = 'cubic': must be one of \['bilinear', 'nearest'\]"):
+    with pytest.raises(InputError, match=r"spreadlet_rotation = 'cubic': must be one of \['bilinear', 'nearest', 'bank'\]"):
         Renderer(capsule.db, spreadlet_rotation="cubic")
 
 
@@ -258,7 +259,7 @@ def test_half_turns_keep_the_unturned_padding(method):
     coords = (rng.random((h, w, 1)) * 6).astype(np.float32)
     angle = rng.choice(np.float32([0.0, np.pi, -np.pi]), (h, w))
     assert half_turns(angle) and not half_turns(angle + np.float32(1e-3))
-    renderer = Renderer(db)
+    renderer = Renderer(db, spreadlet_rotation="bilinear")
     image, _ = renderer.render(colour, coords, method, angle=angle)
     wrapper = renderer._wrappers[(method, 3, True, True)]   # the half-turn splatter was used
     assert wrapper.pad == db.pad

@@ -1,0 +1,266 @@
+"""Every PSF turned once per quantised angle, so the splat kernel turns nothing per pixel.
+
+Moving scenes turn each pixel's PSF by its own angle (``kernels/spreadlets/rotate.cl``). Turning
+per pixel costs: a turned spreadlet is shared bilinearly among four pixels (four writes), and a
+fast-tracked dense PSF is resampled by inverse bilinear mapping for every run of pixels -- and
+runs are short, since neighbouring pixels of a rotating object differ in angle. On ``whirl``
+(1024^2) the turned fast-tracked cells (thin motion streaks, dense in any representation: the
+Laplacian of a 1-2 px wide line is 3 px wide) cost the same in the spreadlet and Splat passes.
+
+The bank holds, for each cell i, its PSF turned by K_i angles 2 pi k / K_i: spreadlets shared
+bilinearly exactly as the kernel shares them, with the four shares of neighbouring spreadlets
+merged per pixel (fewer writes than 4 per spreadlet), and fast-tracked dense PSFs resampled and
+energy-scaled exactly as ``rotate.cl`` resamples them, stored as row spans. A pixel then takes
+the bank entry of the angle nearest its own, and the kernel splats it with the unrotated code
+(``BANK`` in ``kernels/spreadlets/splat.cl``); runs of pixels with the same cell and angle index
+form as in a still image. Measured on whirl at 1024^2 (README, "Where a spreadlet frame's time
+goes"): Splat / spreadlets 1.4x -> 4.1x, SSIM 0.99972 against the per-pixel turn; building the
+bank of its 118 turned cells takes ~21-31 s, hence opt-in (``spreadlet_rotation="bank"``).
+
+The price is the angle quantisation: a PSF point at distance R from the centre moves by at most
+R pi / K_i. K_i is chosen per cell so that this stays below ``angle_error_px`` for the cell's
+farthest point, rounded up to a multiple of 4 (quarter and half turns, the ``coc_sign``
+symmetry's pi among them, stay exact).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from runtime_cl.errors import InputError
+from runtime_cl.psf.database import SpreadletDatabase
+
+__all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_cells", "turned_dense", "turned_spreadlets"]
+
+# Largest displacement (px) of a PSF's farthest point by the angle rounding; see the module docstring
+# and README ("Where a spreadlet frame's time goes") for the SSIM it costs on whirl. At 0.5 px the
+# held-out brute-force check of the combined model (tests/lab/precompute/
+# test_runtime_matches_brute_force.py: motion angles changing every few pixels) fell to SSIM 0.994,
+# below its 0.995 floor; 0.25 px passes it.
+ANGLE_ERROR_PX = 0.25
+MAX_ANGLES = 1024   # bounds the bank's size (a PSF reaching 80 px at 0.25 px)
+
+
+def angles_for_reach(reach_px: float, error_px: float) -> int:
+    """K: the number of angles (a multiple of 4, at least 4) whose rounding moves a point at
+    ``reach_px`` from the centre by at most ``error_px`` (half a step: reach pi / K)."""
+    k = math.ceil(math.pi * max(reach_px, 1.0) / error_px / 4.0) * 4
+    return int(min(max(k, 4), MAX_ANGLES))
+
+
+def bank_cs(k: int, K: int) -> tuple:
+    """(cos, sin) of 2 pi k / K, exact (0, +-1) at quarter turns as ``rotation_cs`` makes them."""
+    if (4 * k) % K == 0:
+        q = (4 * k // K) % 4
+        return ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))[q]
+    a = 2.0 * math.pi * k / K
+    return math.cos(a), math.sin(a)
+
+
+def turned_spreadlets(P: np.ndarray, V: np.ndarray, cs: np.ndarray) -> tuple:
+    """Spreadlets (P int (n, 2) offsets (dx, dy), V (n, C)) turned by each of cs ((K, 2) cos,
+    sin) and shared bilinearly among the four pixels around each turned offset
+    (``splat_spreadlets_rotated``), the shares summed per pixel. Returns (counts (K,), P int16
+    (m, 2), V float32 (m, C)): the turns one after another, each sorted by (dy, dx)."""
+    K, ch = len(cs), V.shape[1]
+    if not len(P):
+        return np.zeros(K, np.int64), np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32)
+    c, s = cs[:, :1], cs[:, 1:]
+    x, y = P[None, :, 0].astype(np.float64), P[None, :, 1].astype(np.float64)
+    fx, fy = c * x + s * y, c * y - s * x   # rotate_xy, (K, n)
+    ix, iy = np.floor(fx), np.floor(fy)
+    wx, wy = fx - ix, fy - iy
+    ix, iy = ix.astype(np.int64), iy.astype(np.int64)
+    px = np.concatenate([ix, ix + 1, ix, ix + 1], axis=1)
+    py = np.concatenate([iy, iy, iy + 1, iy + 1], axis=1)
+    w = np.concatenate([(1 - wx) * (1 - wy), wx * (1 - wy), (1 - wx) * wy, wx * wy], axis=1)
+    k = np.broadcast_to(np.arange(K)[:, None], w.shape)
+    keep = w != 0.0   # quarter turns: one share of weight 1
+    px, py, w, k = px[keep], py[keep], w[keep], k[keep]
+    vals = np.tile(V.astype(np.float64), (4, 1))[np.nonzero(keep)[1]] * w[:, None]
+    lo = min(px.min(), py.min())
+    span = max(px.max(), py.max()) - lo + 1
+    key = (k * span + (py - lo)) * span + (px - lo)
+    uniq, inv = np.unique(key, return_inverse=True)
+    out = np.zeros((len(uniq), ch))
+    np.add.at(out, inv, vals)
+    pix = uniq % (span * span)
+    pts = np.column_stack([pix % span + lo, pix // span + lo]).astype(np.int16)
+    return np.bincount(uniq // (span * span), minlength=K), pts, out.astype(np.float32)
+
+
+def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
+    """A dense PSF ((2r+1, 2r+1, C), centre [r, r]) turned by each of cs ((K, 2)) as
+    ``rotate.cl`` turns it: destination offset d takes the stored PSF bilinearly at R^-1 d (zero
+    outside the crop's support |R^-1 d| < r + 1), scaled per channel to keep the stored sum.
+    Only destinations within sqrt 2 of a turned non-zero pixel can be non-zero (bilinear support),
+    so only those are sampled (a thin streak: a few hundred per angle instead of its whole
+    turned square). Returns K float32 crops, each the smallest centred square holding its
+    non-zero pixels."""
+    r, ch = psf.shape[0] // 2, psf.shape[2]
+    K = len(cs)
+    ys, xs = np.nonzero(np.any(psf != 0, axis=2))
+    if not len(ys):
+        return [np.zeros((1, 1, ch), np.float32)] * K
+    sx0, sy0 = (xs - r).astype(np.float64), (ys - r).astype(np.float64)
+    c, s = cs[:, :1], cs[:, 1:]
+    fx, fy = c * sx0 + s * sy0, c * sy0 - s * sx0   # rotate_xy of the non-zero pixels, (K, m)
+    off = np.arange(-1, 3)
+    cx = (np.floor(fx)[:, :, None, None].astype(np.int64) + off[None, None, None, :])
+    cy = (np.floor(fy)[:, :, None, None].astype(np.int64) + off[None, None, :, None])
+    cx, cy = np.broadcast_arrays(cx, cy)
+    big = 2 * int(math.ceil((r + 3) * math.sqrt(2.0))) + 1
+    k = np.broadcast_to(np.arange(K)[:, None, None, None], cx.shape)
+    key = np.unique(((k * big + (cy + big // 2)) * big + (cx + big // 2)).ravel())
+    kk, rest = key // (big * big), key % (big * big)
+    dy, dx = (rest // big - big // 2).astype(np.float64), (rest % big - big // 2).astype(np.float64)
+    c, s = cs[kk, 0], cs[kk, 1]
+    sx, sy = c * dx - s * dy, s * dx + c * dy   # R^-1 d
+    inside = (np.abs(sx) < r + 1) & (np.abs(sy) < r + 1)
+    ix, iy = np.floor(sx).astype(np.int64), np.floor(sy).astype(np.int64)
+    wx, wy = (sx - ix)[:, None], (sy - iy)[:, None]
+    f = psf.astype(np.float64)
+    padded = np.zeros((f.shape[0] + 4, f.shape[1] + 4, ch))
+    padded[2:-2, 2:-2] = f   # taps one outside the crop read zeros
+
+    def tap(xx, yy):
+        return padded[np.clip(yy + r + 2, 0, padded.shape[0] - 1), np.clip(xx + r + 2, 0, padded.shape[1] - 1)]
+
+    val = (tap(ix, iy) * ((1 - wx) * (1 - wy)) + tap(ix + 1, iy) * (wx * (1 - wy))
+           + tap(ix, iy + 1) * ((1 - wx) * wy) + tap(ix + 1, iy + 1) * (wx * wy))
+    val[~inside] = 0.0
+    stored = f.sum(axis=(0, 1))
+    turned = np.zeros((K, ch))
+    np.add.at(turned, kk, val)
+    ok = (stored > 0) & (turned > 0)
+    val *= np.where(ok, stored / np.where(ok, turned, 1.0), 1.0)[kk]
+    live = np.any(val != 0, axis=1)
+    kk, dx, dy, val = kk[live], dx[live].astype(np.int64), dy[live].astype(np.int64), val[live]
+    bounds = np.searchsorted(kk, np.arange(K + 1))
+    crops = []
+    for a in range(K):
+        lo, hi = bounds[a], bounds[a + 1]
+        if lo == hi:
+            crops.append(np.zeros((1, 1, ch), np.float32))
+            continue
+        keep = int(max(np.abs(dx[lo:hi]).max(), np.abs(dy[lo:hi]).max()))
+        crop = np.zeros((2 * keep + 1, 2 * keep + 1, ch), np.float32)
+        crop[dy[lo:hi] + keep, dx[lo:hi] + keep] = val[lo:hi]
+        crops.append(crop)
+    return crops
+
+
+def row_spans(dense: np.ndarray) -> np.ndarray:
+    """(2r + 1, 2) int: [first, end) columns of each row's non-zero pixels (any channel); (0, 0)
+    for an all-zero row (as :func:`runtime_cl.psf.upload.dense_row_spans`)."""
+    nz = np.any(dense != 0, axis=-1)
+    has, side = nz.any(axis=1), dense.shape[1]
+    first = np.where(has, np.argmax(nz, axis=1), 0)
+    end = np.where(has, side - np.argmax(nz[:, ::-1], axis=1), 0)
+    return np.column_stack([first, end])
+
+
+def turned_cells(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """(n,) bool: the cells of the lit pixels whose angle is no multiple of 90 degrees (the
+    turns :class:`AngleBank` must hold at every angle; ``rotation_cs``'s 2^-19 rad tolerance)."""
+    a = np.fmod(angle.astype(np.float64), 2.0 * math.pi)
+    off = np.abs(a - np.rint(a / (0.5 * math.pi)) * (0.5 * math.pi)) > 2.0 ** -19
+    lit = np.any(colour != 0, axis=2) & off
+    out = np.zeros(db.n_samples, bool)
+    if lit.any():
+        out[np.unique(db.grid.index(np.asarray(coords[lit], np.float64)))] = True
+    return out
+
+
+class AngleBank:
+    """Host arrays of the turned PSFs, laid out as a database of ``sum(K_i)`` samples.
+
+    Entry ``base[i] + k`` is cell i turned by 2 pi k / K_i (``k = 0`` the stored PSF). The
+    arrays have the names and layouts of :class:`~runtime_cl.psf.upload.DeviceDatabase`'s
+    buffers (``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n``),
+    spreadlets sorted by (dy, dx), except that ``dense_v`` holds each row's span only (rows one
+    after another; ``dense_off`` indexes those values).
+
+    Parameters
+    ----------
+    db : SpreadletDatabase
+        The database.
+    angle_error_px : float
+        Largest displacement of a cell's farthest point by the angle rounding (> 0; default
+        :data:`ANGLE_ERROR_PX`).
+    cells : ndarray of bool (n,), optional
+        The cells to turn by every angle; the others get only the four quarter turns (exact
+        for angles that are multiples of 90 degrees, e.g. the ``coc_sign`` symmetry's 0 and
+        pi). Default: every cell. The :class:`~runtime_cl.spreadlets.renderer.Renderer` passes
+        the cells its frames turn by other angles, so a bank holds what is drawn.
+    """
+
+    def __init__(self, db: SpreadletDatabase, angle_error_px: float = ANGLE_ERROR_PX, cells=None):
+        if isinstance(angle_error_px, bool) or not (isinstance(angle_error_px, (int, float))
+                                                    and 0.01 <= angle_error_px <= 10.0):
+            raise InputError(f"angle_error_px = {angle_error_px!r}: must be a number in [0.01, 10] px "
+                             "(the largest displacement of a PSF point by the angle rounding)")
+        self.angle_error_px = float(angle_error_px)
+        n, ch = db.n_samples, db.channels
+        self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
+        k_of = np.zeros(n, np.int32)
+        P_parts, V_parts, counts, fast, radii, dense_parts = [], [], [], [], [], []
+        for i in range(n):
+            is_fast = bool(db.fast_track[i])
+            if is_fast:
+                psf = db.dense_psf(i)
+                # the crop's corner (its turned reach), not its farthest non-zero pixel: that
+                # tighter bound halved K and fell below the brute-force check's SSIM floor (0.9942)
+                reach = math.sqrt(2.0) * (int(db.dense_radius[i]) + 1)
+            else:
+                p, v = db.spreadlets(i)
+                reach = float(np.sqrt((p.astype(np.float64) ** 2).sum(axis=1)).max()) if len(p) else 0.0
+            K = angles_for_reach(reach, self.angle_error_px) if self.cells[i] else 4
+            k_of[i] = K
+            cs = np.array([bank_cs(k, K) for k in range(K)])
+            if is_fast:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array
+                dense = [d for a in range(0, K, 64) for d in turned_dense(psf, cs[a:a + 64])]
+                P_parts.append(np.zeros((0, 2), np.int16))
+                V_parts.append(np.zeros((0, ch), np.float32))
+                counts.extend([0] * K)
+            else:
+                cnt, pts, vals = turned_spreadlets(p, v, cs)
+                P_parts.append(pts)
+                V_parts.append(vals)
+                counts.extend(cnt.tolist())
+                dense = [np.zeros((1, 1, ch), np.float32)] * K
+            fast.extend([is_fast] * K)
+            radii.extend(d.shape[0] // 2 for d in dense)
+            dense_parts.extend(dense)
+        self.angles = k_of
+        self.base = np.concatenate([[0], np.cumsum(k_of)[:-1]]).astype(np.int32)
+        self.C = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        self.P = np.concatenate(P_parts).astype(np.int16)
+        self.V = np.concatenate(V_parts).astype(np.float32)
+        self.fast = np.array(fast, np.uint8)
+        self.dense_r = np.array(radii, np.int32)
+        spans = [row_spans(d) for d in dense_parts]
+        self.span_off = np.concatenate([[0], np.cumsum([len(sp) for sp in spans])]).astype(np.int64)
+        self.span = np.concatenate(spans).astype(np.int32)
+        # values of each row's span only (a turned streak fills a small part of its square)
+        rows = [d[(np.arange(d.shape[1]) >= sp[:, :1]) & (np.arange(d.shape[1]) < sp[:, 1:])]
+                for d, sp in zip(dense_parts, spans)]
+        self.dense_n = np.array([len(v) for v in rows], np.int64)
+        self.dense_off = np.concatenate([[0], np.cumsum(self.dense_n)]).astype(np.int64)
+        self.dense_v = np.concatenate(rows).astype(np.float32)
+        reach = int(np.abs(self.P.astype(np.int64)).max()) if len(self.P) else 0
+        self.pad = max(reach, int(self.dense_r.max())) + 1
+
+    @property
+    def n_entries(self) -> int:
+        """Turned PSFs in the bank (the sum of every cell's angle count)."""
+        return int(self.angles.sum())
+
+    @property
+    def nbytes(self) -> int:
+        """Host bytes of the bank's arrays."""
+        return sum(a.nbytes for a in (self.C, self.P, self.V, self.fast, self.dense_r, self.dense_off,
+                                      self.dense_v, self.span_off, self.span, self.dense_n, self.angles,
+                                      self.base))
+

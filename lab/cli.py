@@ -182,6 +182,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rays", type=_int_or_text, metavar="N",
                    help="layered: lens rays per pixel (default 32), traced through the EXR's layerN.* "
                         "layers when it has them (--layers N: only the nearest N), else its flat image")
+    p.add_argument("--cone", action="store_true",
+                   help="layered: LES09's approximate cone tracing (colour + coverage mipmaps over the spread of "
+                        "neighbouring lens rays, thin or thick lens): less grain at few rays")
     p.add_argument("--directions", type=int, default=2, metavar="M",
                    help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
     p.add_argument("--edges", type=int, metavar="N",

@@ -165,6 +165,9 @@ class LayerTracer:
     cone : bool, default False
         LES09's approximate cone tracing: colour + coverage from a mipmap over the window between
         neighbouring rays, the uncovered part traced on (see the kernel file).
+    cone_scale : float, default 1
+        The cone's footprint over the lens samples' spacing (1; other values only to show that 1
+        is right, tests).
     device : Device, optional
     """
 
@@ -172,7 +175,8 @@ class LayerTracer:
     STATS_INTS = 2                          # per-pixel ray counts the render kernel writes
 
     def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
-                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, device=None):
+                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, cone_scale: float = 1.0,
+                 device=None):
         import pyopencl as cl
 
         for name, value, least in (("rays", rays, 1), ("layers", n_layers, 1), ("downsample", downsample, 1),
@@ -192,7 +196,7 @@ class LayerTracer:
                 f"-DPIXEL_ITERS={int(pixel_iters)}"]
         if false_position:
             opts += ["-DFALSE_POSITION", f"-DFP_ITERS={int(false_position)}"]
-        self.cone = bool(cone)
+        self.cone, self.cone_scale = bool(cone), float(cone_scale)
         self.mips = min(MIPS, 1 + int(math.log2(max(self.h, self.w))))
         if self.cone:
             opts += ["-DCONE", f"-DCONE_STEPS={CONE_STEPS}", f"-DMIPS={self.mips}"]
@@ -243,6 +247,15 @@ class LayerTracer:
         self.nbuffer_events = kernels
         return events, stack.wmax
 
+    def _upload_mips(self, stack: LayerStack) -> list:
+        """Transfer events of the colour + coverage mipmaps (none without cone tracing)."""
+        if not self.cone:
+            return []
+        mip, offsets = colour_mipmaps(stack, self.mips)
+        q, b = self.device.queue, self.buf
+        return [self.cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),
+                self.cl.enqueue_copy(q, b["mip_offset"], offsets, is_blocking=False)]
+
     def render(self, stack: LayerStack, coc_scale: float, focus_m: float, thickness_px: float = 1.0,
                seed: int = 0, inv_focus_map=None) -> tuple:
         """Trace ``rays`` lens rays per pixel through ``stack``.
@@ -291,15 +304,13 @@ class LayerTracer:
                                  f"{(self.h, self.w)}")
             events.append(cl.enqueue_copy(q, b["inv_focus"], inv_focus, is_blocking=False))
             self._focus_uploaded = key
-        if self.cone:
-            mip, offsets = colour_mipmaps(stack, self.mips)
-            events += [cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),
-                       cl.enqueue_copy(q, b["mip_offset"], offsets, is_blocking=False)]
+        events += self._upload_mips(stack)
         gsize = (-(-self.w // 8) * 8, -(-self.h // 8) * 8)
         kernel = self._render(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["samples"],
                               np.float32(coc_scale), b["inv_focus"], np.float32(wmax),
                               np.float32(thickness_px / coc_scale), np.uint32(seed % 2**32), b["mip"],
-                              b["mip_offset"], np.float32(math.sqrt(math.pi / self.rays)), b["out"], b["stats"])
+                              b["mip_offset"], np.float32(self.cone_scale * math.sqrt(math.pi / self.rays)), b["out"],
+                              b["stats"])
         out = np.empty((self.h, self.w, 4), np.float32)
         stats = np.empty((self.h, self.w, 2), np.int32)
         down = [cl.enqueue_copy(q, out, b["out"], wait_for=[kernel], is_blocking=False),

@@ -65,9 +65,9 @@ def textured_plane(depth):
 
 def test_few_cones_approach_many_point_rays():
     """A plane at 0.3 m (CoC radius 5.6 px at 128 px): RMS error against 384 point rays per pixel.
-    Cones at 8 and 16 rays beat point rays at equal rays by >= 20 % (measured 35 % and 28 %); with
+    Cones at 8 and 16 rays beat point rays at equal rays by >= 20 % (measured 37 % and 23 %); with
     the footprint 0 the cones are the point rays exactly, with it 10x they blur too far (measured
-    2.2x and 2.5x the error of the right size); at 64 rays cones and points agree with the 384-ray
+    2.2x and 2.1x the error of the right size); at 64 rays cones and points agree with the 384-ray
     image alike (measured: equal; the cones are then about a pixel wide: level 0, the point rays)."""
     cam = camera().runtime_camera()
     stack = textured_plane(0.3)

@@ -57,11 +57,11 @@ def bench_thick_layered(scene_path, repeats: int, rays=RAYS) -> "Path":
     scene, plan = load_scene_and_plan(scene_path)
     if "layered" not in plan.runtime_passes:
         raise UserError(f"{scene_path}: its plan runs no layered pass; add [render] peel_layers (e.g. 6)")
+    if scene.camera.model != "thick":   # before any render
+        raise UserError(f"{scene_path}: camera model {scene.camera.model!r}; this bench compares a thick lens "
+                        "with its paraxial thin lens (use bench layered for a thin-lens scene)")
     image, reference, info = inputs_and_reference(scene, plan, second=True)
     camera = runtime_camera(image)
-    if getattr(camera, "lens", None) != "thick":
-        raise UserError(f"{scene_path}: camera lens {getattr(camera, 'lens', None)!r}; this bench compares a thick "
-                        "lens with its paraxial thin lens (use bench layered for a thin-lens scene)")
     width = reference.shape[1]
     thin = paraxial_thin_lens(camera, width)
     peeled, flat = frame_of(image, layered_input=True), frame_of(image)

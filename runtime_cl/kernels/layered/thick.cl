@@ -93,8 +93,9 @@ static void thick_ranges(global const float2 *nbuf, global const float2 *range, 
 
 // One work item per pixel: NRAYS box samples (per-pixel offsets into the jittered set, LES09 4.5),
 // each traced in every channel; with CONE each a cone (cone_colour) whose size the rays of its
-// neighbouring samples give, weighted by the fraction it found. out: the channels' weighted means (xyz) and the (ray, channel)
-// pairs that hit / NCH (w); stats: pairs that left the image, found nothing, were blocked.
+// neighbouring samples give, weighted by the fraction it found. out: the channels' weighted means
+// (xyz) and the (ray, channel) pairs that hit / NCH (w); stats: pairs that left the image, found
+// nothing, were blocked.
 kernel void render_thick(global const float *height, global const float4 *colour, global const float2 *nbuf,
                          global const float2 *range, global const float2 *samples, global const float4 *boxes,
                          float wmax, float thick, uint seed, global const float4 *mip, global const int *mip_offset,

@@ -182,6 +182,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rays", type=_int_or_text, metavar="N",
                    help="layered: lens rays per pixel (default 32), traced through the EXR's layerN.* "
                         "layers when it has them (--layers N: only the nearest N), else its flat image")
+    p.add_argument("--cone", action="store_true",
+                   help="layered: LES09's approximate cone tracing (colour + coverage mipmaps over the spread of "
+                        "neighbouring lens rays, thin or thick lens): less grain at few rays")
     p.add_argument("--directions", type=int, default=2, metavar="M",
                    help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
     p.add_argument("--edges", type=int, metavar="N",
@@ -221,7 +224,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "rotation, spreadlets with a constant and a per-pixel angle over without (512^2; "
                         "not part of all); layered: lens rays through the peeled layers of --scene (default "
                         "scenes/foreground.toml) for 4..256 rays and 1..L layers against Mitsuba, and spreadlets in "
-                        "1/2/4 depth layers beside it at equal time; layer_cost: layers 5-8 against 1-4 of the "
+                        "1/2/4 depth layers beside it at equal time; thick_layered: the same through a thick lens (--scene, "
+                        "default scenes/thick_highlights.toml), point rays and cones, against the flat image, a thin "
+                        "lens of equal paraxial CoC and the reference's noise floor (not part of all); layer_cost: layers 5-8 against 1-4 of the "
                         "layered pass on an 8-layer numpy scene, and time for 8..256 rays x 1..16 layers (LES10 "
                         "Table 1's axes) on a 16-layer one (neither part of all); splat_layers: "
                         "spreadlets and Splat with 1, 2, 4 depth layers, with and without the guard band, "

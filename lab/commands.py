@@ -149,6 +149,9 @@ def _check_render_options(args, cls) -> None:
         raise UserError(f"--db {args.db}: --method {args.method} uses no PSF database; drop --db")
     if args.rays is not None and "rays" not in inspect.signature(cls.configure).parameters:
         raise UserError(f"--rays {args.rays}: --method {args.method} traces no lens rays; drop --rays")
+    if getattr(args, "cone", False) and "cone" not in inspect.signature(cls.configure).parameters:
+        raise UserError(f"--cone: --method {args.method} traces no lens rays to widen into cones; drop --cone "
+                        "or use --method layered")
     if args.far_db is not None and not cls.far_field:
         raise UserError(f"--far-db {args.far_db}: --method {args.method} does not add far fields; use it with "
                         "--method spreadlets, splat or filter and a volume --db")
@@ -188,6 +191,8 @@ def cmd_render(args) -> int:
         options["layered_input"] = cls.layered and bool(image.layers(str(args.input)))
     if args.rays is not None:
         options["rays"] = args.rays
+    if getattr(args, "cone", False):
+        options["cone"] = True
     if "rays" in takes:   # lens rays: through the layers the input has
         options.setdefault("layered_input", bool(image.layers(str(args.input))))
     if cls.draws_aperture:

@@ -12,6 +12,9 @@ One module per benchmark:
   1024^2 and 4096^2 (``bench integrate``);
 - :mod:`.layered` - lens rays through peeled layers: quality and time per ray and layer count
   (``bench layered``, default scene ``scenes/foreground.toml``);
+- :mod:`.thick_layered` - lens rays of a thick lens through peeled layers, point rays and cones,
+  against the flat image and the paraxial thin lens (``bench thick_layered``, default scene
+  ``scenes/thick_highlights.toml``);
 - :mod:`.layer_cost` - layers 5-8 against 1-4 of the layered pass on a numpy fence scene
   (``bench layer_cost``);
 - :mod:`.tracing` - Dr.Jit PSF tracing rays/s of one model;
@@ -63,6 +66,15 @@ def _layered(args) -> list:
     return [bench_layered(scene, args["repeats"])]
 
 
+def _thick_layered(args) -> list:
+    from lab.paths import DEMO_SCENE, SCENES
+
+    from .thick_layered import bench_thick_layered
+
+    scene = SCENES / "thick_highlights.toml" if Path(args["scene"]) == DEMO_SCENE else args["scene"]
+    return [bench_thick_layered(scene, args["repeats"])]
+
+
 def _layer_cost(args) -> list:
     from .layer_cost import bench_layer_cost
 
@@ -78,7 +90,8 @@ def _splat_layers(args) -> list:
 # ``splatlab bench WHAT``: the benchmarks each name runs, in order.
 BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_polygon,),
            "rotation": (_rotation,), "integrate": (_integrate,), "layered": (_layered,),
-           "layer_cost": (_layer_cost,), "splat_layers": (_splat_layers,), "all": (_precompute, _runtime)}
+           "thick_layered": (_thick_layered,), "layer_cost": (_layer_cost,), "splat_layers": (_splat_layers,),
+           "all": (_precompute, _runtime)}
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,

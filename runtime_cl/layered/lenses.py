@@ -31,10 +31,7 @@ class ThinRays:
 class ThickRays:
     """A thick lens: rays traced through its surfaces per channel (:class:`ThickLayerTracer`)."""
 
-    def __init__(self, camera, shape, n_layers, rays, cone=False, **options):
-        if cone:
-            raise InputError("cone = true: cone tracing approximates a thin lens's disc footprints; a thick lens's "
-                             "rays are traced one by one (leave cone off)")
+    def __init__(self, camera, shape, n_layers, rays, **options):
         self.tracer = ThickLayerTracer(camera, shape, n_layers, rays, **options)
 
     def render(self, stack, thickness_px, seed):

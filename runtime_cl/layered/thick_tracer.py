@@ -37,15 +37,17 @@ class ThickLayerTracer(LayerTracer):
     ----------
     camera : runtime_cl.camera.thick_lens.ThickLens
         The lens, its sensor and the channels' indices (three channels).
-    shape, n_layers, rays, downsample, clamp_iters, pixel_iters, false_position, device
-        As :class:`LayerTracer` (no cone tracing: a thick lens's ray footprints are not discs).
+    shape, n_layers, rays, downsample, clamp_iters, pixel_iters, false_position, cone, cone_scale, device
+        As :class:`LayerTracer`. A cone's footprint is not the thin lens's disc: the rays of its box
+        sample's neighbours through the real lens give its size at the hit depth (the kernel file).
     """
 
     KERNEL_FILES = ("camera/lens_trace.cl", "layered/trace.cl", "layered/thick.cl")
     STATS_INTS = 4
 
     def __init__(self, camera, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
-                 pixel_iters: int = 3, false_position: int = 0, interpolate_hidden: bool = True, device=None):
+                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, cone_scale: float = 1.0,
+                 interpolate_hidden: bool = True, device=None):
         lens = TracedLens.from_camera(camera)
         if len(lens.eta) != 3:
             raise InputError(f"camera indices: {len(lens.eta)} channel(s); the layered tracer renders RGB, so the "
@@ -61,11 +63,14 @@ class ThickLayerTracer(LayerTracer):
         self.pupil_z = float(camera.pupil_z_mm)
         self.coc_scale = float(camera.coc_scale_px(w))
         super().__init__(shape, n_layers, rays, downsample=downsample, clamp_iters=clamp_iters,
-                         pixel_iters=pixel_iters, false_position=false_position, cone=False,
-                         interpolate_hidden=interpolate_hidden, device=device)
+                         pixel_iters=pixel_iters, false_position=false_position, cone=cone,
+                         cone_scale=cone_scale, interpolate_hidden=interpolate_hidden, device=device)
         cl = self.cl
         self._render_thick = cl.Kernel(self.program, "render_thick")
         self._thick_rays = cl.Kernel(self.program, "thick_rays")
+        self._thick_cones = cl.Kernel(self.program, "thick_cones") if self.cone else None
+        # the box samples' spacing: rays uniform in the unit square, 1/rays of it each
+        self.spacing = math.sqrt(1.0 / self.rays)
         self.buf["boxes"] = cl.Buffer(self.device.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
                                       hostbuf=self.pupil.kernel_table())
 
@@ -97,11 +102,13 @@ class ThickLayerTracer(LayerTracer):
         if not (math.isfinite(thickness_px) and thickness_px >= 0):
             raise InputError(f"thickness_px = {thickness_px!r}: the surfel slab depth must be >= 0 pixels")
         events, wmax = self._upload(stack)
+        events += self._upload_mips(stack)
         cl, q, b = self.cl, self.device.queue, self.buf
         gsize = (-(-self.w // 8) * 8, -(-self.h // 8) * 8)
         kernel = self._render_thick(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["samples"],
                                     b["boxes"], np.float32(wmax), np.float32(thickness_px / self.coc_scale),
-                                    np.uint32(seed % 2**32), b["out"], b["stats"])
+                                    np.uint32(seed % 2**32), b["mip"], b["mip_offset"],
+                                    np.float32(self.spacing), np.float32(self.cone_scale), b["out"], b["stats"])
         out = np.empty((self.h, self.w, 4), np.float32)
         stats = np.empty((self.h, self.w, 4), np.int32)
         down = [cl.enqueue_copy(q, out, b["out"], wait_for=[kernel], is_blocking=False),
@@ -141,3 +148,18 @@ class ThickLayerTracer(LayerTracer):
         cl.enqueue_copy(self.device.queue, ab, out_b, wait_for=[ev])
         cl.enqueue_copy(self.device.queue, weight, w_b, wait_for=[ev])
         return ab, weight
+
+    def cone_diameters(self, pixel_u, channel, w: float) -> np.ndarray:
+        """The kernel's cone diameters (pixels) at inverse depth ``w`` (1/m) of rays from pixel
+        positions with box samples, as :meth:`ray_lines` takes them (tests; needs ``cone``)."""
+        cl = self.cl
+        pixel_u = np.ascontiguousarray(pixel_u, np.float32)
+        ch = np.ascontiguousarray(channel, np.int32)
+        n, ctx, mf = len(pixel_u), self.device.context, cl.mem_flags
+        bufs = [cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (pixel_u, ch)]
+        out_b = cl.Buffer(ctx, mf.WRITE_ONLY, 4 * n)
+        ev = self._thick_cones(self.device.queue, (n,), None, bufs[0], bufs[1], self.buf["boxes"], np.int32(n),
+                               np.float32(w), np.float32(self.spacing), out_b)
+        out = np.empty(n, np.float32)
+        cl.enqueue_copy(self.device.queue, out, out_b, wait_for=[ev])
+        return out

@@ -169,6 +169,9 @@ class LayerTracer:
         Read a surfel hidden behind a nearer layer's pixel (a peeled one) bilinearly at the ray's
         hit point, between the cells of its surface; a surfel the pinhole sees by its cell
         (``surface_colour`` in the kernel file). False: every surfel by its cell.
+    cone_scale : float, default 1
+        The cone's footprint over the lens samples' spacing (1; other values only to show that 1
+        is right, tests).
     device : Device, optional
     """
 
@@ -176,7 +179,8 @@ class LayerTracer:
     STATS_INTS = 2                          # per-pixel ray counts the render kernel writes
 
     def __init__(self, shape, n_layers: int, rays: int, *, downsample: int = 4, clamp_iters: int = 0,
-                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, interpolate_hidden: bool = True,
+                 pixel_iters: int = 3, false_position: int = 0, cone: bool = False, cone_scale: float = 1.0,
+                 interpolate_hidden: bool = True,
                  device=None):
         import pyopencl as cl
 
@@ -197,7 +201,7 @@ class LayerTracer:
                 f"-DPIXEL_ITERS={int(pixel_iters)}", f"-DINTERPOLATE_HIDDEN={int(bool(interpolate_hidden))}"]
         if false_position:
             opts += ["-DFALSE_POSITION", f"-DFP_ITERS={int(false_position)}"]
-        self.cone = bool(cone)
+        self.cone, self.cone_scale = bool(cone), float(cone_scale)
         self.mips = min(MIPS, 1 + int(math.log2(max(self.h, self.w))))
         if self.cone:
             opts += ["-DCONE", f"-DCONE_STEPS={CONE_STEPS}", f"-DMIPS={self.mips}"]
@@ -257,6 +261,15 @@ class LayerTracer:
         self.nbuffer_events = kernels
         return events, stack.wmax
 
+    def _upload_mips(self, stack: LayerStack) -> list:
+        """Transfer events of the colour + coverage mipmaps (none without cone tracing)."""
+        if not self.cone:
+            return []
+        mip, offsets = colour_mipmaps(stack, self.mips)
+        q, b = self.device.queue, self.buf
+        return [self.cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),
+                self.cl.enqueue_copy(q, b["mip_offset"], offsets, is_blocking=False)]
+
     def render(self, stack: LayerStack, coc_scale: float, focus_m: float, thickness_px: float = 1.0,
                seed: int = 0, inv_focus_map=None) -> tuple:
         """Trace ``rays`` lens rays per pixel through ``stack``.
@@ -308,15 +321,13 @@ class LayerTracer:
         if self._rays_scale != float(coc_scale):
             events.append(cl.enqueue_copy(q, b["lens_rays"], self._lens_rays(coc_scale), is_blocking=False))
             self._rays_scale = float(coc_scale)
-        if self.cone:
-            mip, offsets = colour_mipmaps(stack, self.mips)
-            events += [cl.enqueue_copy(q, b["mip"], mip, is_blocking=False),
-                       cl.enqueue_copy(q, b["mip_offset"], offsets, is_blocking=False)]
+        events += self._upload_mips(stack)
         gsize = (-(-self.w // 8) * 8, -(-self.h // 8) * 8)
         kernel = self._render(q, gsize, (8, 8), b["height"], b["colour"], b["nbuf"], b["range"], b["lens_rays"],
                               np.float32(coc_scale), b["inv_focus"], np.float32(wmax),
                               np.float32(thickness_px / coc_scale), np.uint32(seed % 2**32), b["mip"],
-                              b["mip_offset"], np.float32(math.sqrt(math.pi / self.rays)), b["out"], b["stats"])
+                              b["mip_offset"], np.float32(self.cone_scale * math.sqrt(math.pi / self.rays)), b["out"],
+                              b["stats"])
         out = np.empty((self.h, self.w, 4), np.float32)
         stats = np.empty((self.h, self.w, 2), np.int32)
         down = [cl.enqueue_copy(q, out, b["out"], wait_for=[kernel], is_blocking=False),

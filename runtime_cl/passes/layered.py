@@ -50,7 +50,8 @@ class LayeredPass(RuntimePass):
     false_position : int, default 0
         0: the exact walk; n > 0: LES09's false-position search with n steps (approximate).
     cone : bool, default False
-        LES09's approximate cone tracing with colour + coverage mipmaps (fewer rays, less grain).
+        LES09's approximate cone tracing with colour + coverage mipmaps (fewer rays, less grain), thin
+        or thick lens (a cone sized by its neighbouring lens samples' rays).
     seed : int, default 0
         Seeds the per-pixel offsets into the jittered lens sample set.
     interpolate_hidden : bool, default True

@@ -69,13 +69,16 @@ def test_a_pinhole_has_no_lens_to_trace(work, capfd):
 
 
 def test_the_runtime_refuses_what_it_cannot_trace():
-    """Through the runtime API (no lab checks in between): a one-channel thick lens, cone tracing of a
-    thick lens."""
+    """Through the runtime API (no lab checks in between): a one-channel thick lens."""
     rng = np.random.default_rng(4)
     rgb, z = rng.random((H, W, 3), dtype=np.float32), rng.uniform(1, 5, (H, W)).astype(np.float32)
     header = thick_header(SINGLET)
     one = from_header(dict(header, wavelengths_nm=header["wavelengths_nm"][:1], indices=header["indices"][:1]))
     with pytest.raises(InputError, match=r"camera indices: 1 channel\(s\); .* needs indices at three wavelengths"):
         runtime_cl.render(rgb, z, one, method="layered", rays=4)
-    with pytest.raises(InputError, match=r"cone = true: .* a thick lens's rays are traced one by one \(leave cone off\)"):
-        runtime_cl.render(rgb, z, from_header(header), method="layered", rays=4, cone=True)
+
+
+def test_cone_with_a_method_that_traces_no_lens_rays(work, capfd):
+    path = exr(work, thick_header(SINGLET))
+    fails_cleanly(["render", path, "--method", "polygon", "--cone", "--out", work / "o.exr"], capfd, work,
+                  "--cone: --method polygon traces no lens rays", "drop --cone or use --method layered")

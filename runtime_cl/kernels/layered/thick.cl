@@ -48,6 +48,23 @@ static float2 pixel_sample(global const float2 *samples, uint o, int j)
     return samples[s < NSAMPLES ? s : s - NSAMPLES];
 }
 
+#ifdef CONE
+// A cone's edge (LES09 4.4) through the real lens: the ray of the neighbouring box sample u + d e
+// (d: the samples' spacing, toward the box's middle; the other way if that ray is blocked) as an
+// offset (a' - a, b' - b) from the ray (a, b); its spread at the hit depth sizes the cone
+// (cone_colour), so the footprint follows spherical aberration, the cat-eye's squeeze and the
+// channel's index. Zero when both neighbours are blocked: a point sample.
+static float4 neighbour(float2 s, float2 u, float2 e, float spacing, int ch, global const float4 *boxes, float2 a,
+                        float2 b)
+{
+    float2 a2, b2, step = e * (dot(u, e) < 0.5f ? spacing : -spacing);
+    float wt;
+    if (thick_ray(s, u + step, ch, boxes, &a2, &b2, &wt) || thick_ray(s, u - step, ch, boxes, &a2, &b2, &wt))
+        return (float4)(a2 - a, b2 - b);
+    return (float4)0.0f;
+}
+#endif
+
 static float lane(float4 v, int ch)
 {
     return ch == 0 ? v.x : (ch == 1 ? v.y : v.z);
@@ -75,11 +92,14 @@ static void thick_ranges(global const float2 *nbuf, global const float2 *range, 
 }
 
 // One work item per pixel: NRAYS box samples (per-pixel offsets into the jittered set, LES09 4.5),
-// each traced in every channel. out: the channels' weighted means (xyz) and the (ray, channel)
-// pairs that hit / NCH (w); stats: pairs that left the image, found nothing, were blocked.
+// each traced in every channel; with CONE each a cone (cone_colour) whose size the rays of its
+// neighbouring samples give, weighted by the fraction it found. out: the channels' weighted means
+// (xyz) and the (ray, channel) pairs that hit / NCH (w); stats: pairs that left the image, found
+// nothing, were blocked.
 kernel void render_thick(global const float *height, global const float4 *colour, global const float2 *nbuf,
                          global const float2 *range, global const float2 *samples, global const float4 *boxes,
-                         float wmax, float thick, uint seed, global float4 *out, global int4 *stats)
+                         float wmax, float thick, uint seed, global const float4 *mip, global const int *mip_offset,
+                         float spacing, float cone_scale, global float4 *out, global int4 *stats)
 {
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= W || y >= H)
@@ -107,7 +127,8 @@ kernel void render_thick(global const float *height, global const float4 *colour
     int left_n = 0, miss_n = 0, hit_n = 0;
     for (int j = 0; j < NRAYS && passed; ++j)
         for (int ch = 0; ch < NCH; ++ch) {
-            if (!thick_ray(s, pixel_sample(samples, o, j), ch, boxes, &a, &b, &weight))
+            float2 u = pixel_sample(samples, o, j);
+            if (!thick_ray(s, u, ch, boxes, &a, &b, &weight))
                 continue;
             bool left;
             hit_t hit = trace_ray(height, nbuf, wa, wb, a, b, 1.0f / b, wmax, INFINITY, thick, &left);
@@ -116,8 +137,16 @@ kernel void render_thick(global const float *height, global const float4 *colour
                 miss_n += left ? 0 : 1;
                 continue;
             }
+#ifdef CONE
+            float4 n1 = cone_scale * neighbour(s, u, (float2)(1.0f, 0.0f), spacing, ch, boxes, a, b);
+            float4 n2 = cone_scale * neighbour(s, u, (float2)(0.0f, 1.0f), spacing, ch, boxes, a, b);
+            float4 cone = cone_colour(height, nbuf, mip, mip_offset, wa, wb, a, b, 1.0f / b, n1, n2, wmax, thick, hit);
+            sum[ch] += weight * lane(cone, ch);
+            wsum[ch] += weight * cone.w;
+#else
             sum[ch] += weight * lane(surface_colour(height, colour, hit.layer, hit.cell, hit.w, a, b, thick), ch);
             wsum[ch] += weight;
+#endif
             ++hit_n;
         }
     bool found;   // a channel no ray hit: the nearest layer's own pixel, if any (else 0)
@@ -146,3 +175,24 @@ kernel void thick_rays(global const float4 *pixel_u, global const int *channel, 
     out[i] = ok ? (float4)(a, b) : (float4)(0.0f);
     weight[i] = ok ? wt : 0.0f;
 }
+
+#ifdef CONE
+// Tests: the cone diameter (pixels) at inverse depth w of the rays of pixels (px, py) through box
+// samples u (0: blocked, or both neighbours blocked).
+kernel void thick_cones(global const float4 *pixel_u, global const int *channel, global const float4 *boxes, int n,
+                        float w, float spacing, global float *out)
+{
+    int i = get_global_id(0);
+    if (i >= n)
+        return;
+    float4 pu = pixel_u[i];
+    float2 s = (float2)(-(pu.x - 0.5f * W) * MM_PX, (pu.y - 0.5f * H) * MM_PX);
+    float2 a, b;
+    float wt;
+    float d = 0.0f;
+    if (thick_ray(s, pu.zw, channel[i], boxes, &a, &b, &wt))
+        d = cone_diameter(neighbour(s, pu.zw, (float2)(1.0f, 0.0f), spacing, channel[i], boxes, a, b),
+                          neighbour(s, pu.zw, (float2)(0.0f, 1.0f), spacing, channel[i], boxes, a, b), w);
+    out[i] = d;
+}
+#endif

@@ -287,6 +287,67 @@ static float4 surface_colour(global const float *height, global const float4 *co
     return wsum > 0.0f ? sum / wsum : colour[base + cell];
 }
 
+#ifdef CONE
+// The diameter of a ray's cone at inverse depth w: sqrt of the area |d1 x d2| its lens sample's
+// cell spans there, d_i(w) = n_i.xy + n_i.zw w being where the neighbouring samples' rays are
+// relative to it (the same lines q = a + b w, differenced). Thin lens: lambda S |w - 1/F|.
+static float cone_diameter(float4 n1, float4 n2, float w)
+{
+    float2 d1 = n1.xy + n1.zw * w, d2 = n2.xy + n2.zw * w;
+    return sqrt(fabs(d1.x * d2.y - d1.y * d2.x));
+}
+
+// Layer k's colour + coverage mipmap at level lv, bilinear around image point q (pixels; clamped
+// to the image's texels).
+static float4 mip_bilinear(global const float4 *mip, global const int *mip_offset, int k, int lv, float2 q)
+{
+    int wl = (W + (1 << lv) - 1) >> lv, hl = (H + (1 << lv) - 1) >> lv;
+    float2 f = q / (float)(1 << lv) - 0.5f, i = floor(f), t = f - i;
+    int x0 = clamp((int)i.x, 0, wl - 1), x1 = clamp((int)i.x + 1, 0, wl - 1);
+    int y0 = clamp((int)i.y, 0, hl - 1), y1 = clamp((int)i.y + 1, 0, hl - 1);
+    global const float4 *m = mip + mip_offset[k * MIPS + lv];
+    return mix(mix(m[y0 * wl + x0], m[y0 * wl + x1], t.x), mix(m[y1 * wl + x0], m[y1 * wl + x1], t.x), t.y);
+}
+
+// LES09 4.4 from a ray's first hit: at a hit the layer's colour + coverage mipmap is read over the
+// cone's window, centred on the hit point (trilinear: the level of the diameter, bilinear in
+// each level but 0, which is the hit cell; the window neither snaps to the mip's blocks nor jumps
+// between levels); the
+// covered fraction v adds its mean colour, the rest (1 - v) goes on behind the surfel's slab, up
+// to CONE_STEPS hits. Returns the colour found (xyz) and the fraction of the cone that found it
+// (w): the ray's weight.
+static float4 cone_colour(global const float *height, global const float2 *nbuf, global const float4 *mip,
+                          global const int *mip_offset, const float *wa, const float *wb, float2 a, float2 b,
+                          float2 ib, float4 n1, float4 n2, float wmax, float thick, hit_t hit)
+{
+    float4 sum = (float4)0.0f;
+    float through = 1.0f;
+    bool left;
+    for (int step = 0; step < CONE_STEPS; ++step) {
+        float diameter = cone_diameter(n1, n2, hit.w);
+        // a 2^l box (mip level l) under a bilinear tent of 2^l has the spread (std 0.5 2^l) of a
+        // window 1.73 2^l wide: level log2(diameter / 1.73) reads the cone's window
+        float level = clamp(log2(diameter * 0.577f), 0.0f, (float)(MIPS - 1));
+        int l0 = min((int)level, MIPS - 2 < 0 ? 0 : MIPS - 2);
+        float2 q = a + b * hit.w;
+        // level 0: the hit cell itself (a cone under a pixel reads what a point ray reads)
+        float4 m = l0 ? mip_bilinear(mip, mip_offset, hit.layer, l0, q) : mip[mip_offset[hit.layer * MIPS] + hit.cell];
+        if (MIPS > 1 && level > (float)l0)
+            m = mix(m, mip_bilinear(mip, mip_offset, hit.layer, l0 + 1, q), level - (float)l0);
+        sum += through * (float4)(m.x, m.y, m.z, 0.0f);
+        through *= 1.0f - m.w;
+        if (through < 0.01f)
+            break;
+        float cap = height[(size_t)hit.layer * W * H + hit.cell] - thick * 1.0001f - 1e-7f;
+        hit = trace_ray(height, nbuf, wa, wb, a, b, ib, wmax, cap, thick, &left);
+        if (hit.layer < 0)
+            break;
+    }
+    sum.w = 1.0f - through;
+    return sum;
+}
+#endif
+
 static uint hash_u32(uint x)
 {
     x ^= x >> 16;
@@ -302,9 +363,7 @@ static uint hash_u32(uint x)
 // stats: rays that left the image, rays that found nothing (holes).
 //
 // With CONE (LES09 4.4), a ray is a cone of diameter lambda |C(w)| (lambda: the lens samples'
-// spacing): at a hit the layer's colour + coverage mipmap is read over that window (level
-// log2 of the diameter); the covered fraction v adds its mean colour, the rest (1 - v) goes on
-// behind the surfel's slab, up to CONE_STEPS hits. A ray's weight is the fraction it found.
+// spacing on the unit disc), traced by cone_colour; a ray's weight is the fraction it found.
 kernel void render(global const float *height, global const float4 *colour, global const float2 *nbuf,
                    global const float2 *range, global const float4 *rays, float coc_scale,
                    global const float *inv_focus_map, float wmax, float thick, uint seed, global const float4 *mip,
@@ -354,22 +413,12 @@ kernel void render(global const float *height, global const float4 *colour, glob
             continue;
         }
 #ifdef CONE
-        float through = 1.0f;
-        for (int step = 0; step < CONE_STEPS; ++step) {
-            float diameter = lambda * coc_scale * fabs(inv_focus - hit.w);
-            int lv = diameter > 1.0f ? min((int)(log2(diameter) + 0.5f), MIPS - 1) : 0;
-            int cx = hit.cell % W, cy = hit.cell / W, wl = (W + (1 << lv) - 1) >> lv;
-            float4 m = mip[mip_offset[hit.layer * MIPS + lv] + (cy >> lv) * wl + (cx >> lv)];
-            sum += through * (float4)(m.x, m.y, m.z, 0.0f);
-            through *= 1.0f - m.w;
-            if (through < 0.01f)
-                break;
-            float cap = height[(size_t)hit.layer * W * H + hit.cell] - thick * 1.0001f - 1e-7f;
-            hit = trace_ray(height, nbuf, wa, wb, a, b, ib, wmax, cap, thick, &left);
-            if (hit.layer < 0)
-                break;
-        }
-        weight += 1.0f - through;
+        // the neighbouring lens samples xi + lambda e_x, xi + lambda e_y: offsets lambda S (w - 1/F) e
+        float sl = lambda * coc_scale;
+        float4 cone = cone_colour(height, nbuf, mip, mip_offset, wa, wb, a, b, ib, (float4)(-sl * inv_focus, 0.0f, sl, 0.0f),
+                                  (float4)(0.0f, -sl * inv_focus, 0.0f, sl), wmax, thick, hit);
+        sum += (float4)(cone.xyz, 0.0f);
+        weight += cone.w;
 #else
         sum += surface_colour(height, colour, hit.layer, hit.cell, hit.w, a, b, thick);
         weight += 1.0f;

@@ -23,6 +23,8 @@ from runtime_cl.errors import InputError
 from runtime_cl.passes.registry import register_pass
 from runtime_cl.passes.spreadlets import SplatPass, SpreadletsPass
 from runtime_cl.stochastic import CHANNELS, recentre
+from runtime_cl.stochastic.fill import normalise
+from runtime_cl.stochastic.recentre import FOOTPRINTS
 from runtime_cl.timing import CallTimes
 
 __all__ = ["StochasticSpreadletsPass", "StochasticSplatPass"]
@@ -36,14 +38,21 @@ class _Stochastic:
     layered = False     # re-centred slots are flat frames: no depth layers of their own
     far_field = False   # stochastic inputs have no medium (lab.reference.stochastic refuses fog)
 
-    def configure(self, *, normalize: bool = False, min_density: float = 0.25, **options):
+    def configure(self, *, normalize: bool = False, min_density: float = 0.25, footprint: str = "nearest",
+                  fill: bool = True, **options):
         if not isinstance(normalize, bool):
             raise InputError(f"normalize = {normalize!r}: give True (divide by the splatted sample density) "
                              "or False (LSR18's plain sum)")
         if isinstance(min_density, bool) or not (isinstance(min_density, (int, float)) and 0 < min_density <= 1):
             raise InputError(f"min_density = {min_density!r}: give a number in (0, 1], the least density "
                              "the normalised reconstruction divides by")
-        self.normalize, self.min_density = normalize, float(min_density)
+        if footprint not in FOOTPRINTS:
+            raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)} (how a re-centred "
+                             "sample lands on the pixel grid)")
+        if not isinstance(fill, bool):
+            raise InputError(f"fill = {fill!r}: give True (fill low sample density from coarser pixels) or False "
+                             "(divide by at least min_density)")
+        self.normalize, self.min_density, self.footprint, self.fill = normalize, float(min_density), footprint, fill
         super().configure(**options)
 
     def prepare(self, frame):
@@ -51,7 +60,7 @@ class _Stochastic:
             raise InputError(f"the {self.name!r} pass reconstructs a stochastic image: it needs the channels "
                              f"{list(CHANNELS)}; give the labelled image those channels, or splat a pinhole "
                              "image with the plain pass")
-        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera)
+        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera, footprint=self.footprint)
         base = super(_Stochastic, self).prepare
         parts = [base(f) for f in rec.frames]
         density = [base(replace(f, rgb=n)) for f, n in zip(rec.frames, rec.counts)] if self.normalize else []
@@ -73,7 +82,9 @@ class _Stochastic:
         total, device, transfer = self._sum(parts, counts)
         if density:
             weight, d2, t2 = self._sum(density, {})
-            total = total / np.maximum(weight, self.min_density)   # host work: in the call's time
+            # host work: in the call's time
+            total = normalise(total, weight, self.min_density) if self.fill else \
+                total / np.maximum(weight, self.min_density)
             device, transfer = device + d2, transfer + t2
         counts.update(slots=len(parts), dropped_samples=rec.dropped)
         return total, CallTimes(device_ms=device, transfer_ms=transfer, counts=counts)

@@ -101,16 +101,20 @@ def test_bilinear_footprint_keeps_sub_pixel_positions_and_energy():
 
 @pytest.mark.parametrize("footprint", ["nearest", "bilinear"])
 def test_normalised_defocused_plane_with_holes_is_flat(footprint):
-    """A constant plane at a 1.5-px CoC: its PSFs are too small to cover where no sample landed,
-    so dividing by a clamped density leaves dark holes; the push-pull fill does not."""
+    """A constant plane at a 0.7-px CoC: its PSFs are about one pixel, so with nearest-pixel
+    deposits some pixels receive no sample and dividing by a clamped density leaves them dark;
+    the push-pull fill (and the bilinear footprint) keep the plane flat."""
     size = 64
     rng = np.random.default_rng(4)
     samples = rng.random((size, size, 3)).astype(np.float32)
-    frame = Frame(np.full((size, size, 3), 0.5, np.float32), np.full((size, size), _depth_for(1.5, size), np.float32),
+    frame = Frame(np.full((size, size, 3), 0.5, np.float32), np.full((size, size), _depth_for(0.7, size), np.float32),
                   samples=samples)
     db = disc_database(r_max=6.0, samples=64)
     inner = (slice(6, -6), slice(6, -6))
     filled, _ = run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, footprint=footprint)
     np.testing.assert_allclose(filled[inner], 0.5, rtol=1e-3)    # float32 splat sums and the Laplacian round-off
+    clamped, _ = run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, footprint=footprint, fill=False)
+    if footprint == "nearest":
+        assert clamped[inner].min() < 0.4       # a hole: density below min_density = 0.25
     with pytest.raises(InputError, match="fill = 1"):
         run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, fill=1)

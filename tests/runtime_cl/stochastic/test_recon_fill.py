@@ -118,3 +118,49 @@ def test_normalised_defocused_plane_with_holes_is_flat(footprint):
         assert clamped[inner].min() < 0.4       # a hole: density below min_density = 0.25
     with pytest.raises(InputError, match="fill = 1"):
         run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, fill=1)
+
+
+def test_composite_of_one_layer_is_the_normalised_reconstruction():
+    from runtime_cl.stochastic.composite import composite
+
+    rng = np.random.default_rng(6)
+    c, d = rng.random((20, 20, 3)), rng.random((20, 20, 1)) * 2
+    np.testing.assert_array_equal(composite([c], [d], 0.25), normalise(c, d, 0.25))
+    np.testing.assert_allclose(composite([c], [d], 0.25, fill=False), c / np.maximum(d, 0.25), rtol=1e-6)
+
+
+def _occluder_scene(size, coc_bg, rng):
+    """A numpy stochastic image: an in-focus grey square (x < size/2 in every view: an in-focus
+    surface projects to y' = y through any lens point) in front of a bright defocused plane whose
+    pinhole image is a vertical stripe pattern; every pixel traces its own lens sample."""
+    samples = rng.random((size, size, 3)).astype(np.float32)
+    ys, xs = np.mgrid[0:size, 0:size] + 0.5
+    dx, dy = concentric_disc(samples[..., 0], samples[..., 1])
+    front = xs < size / 2
+    bg_x = xs - coc_bg * dx                       # where on the background's pinhole image the ray lands
+    stripes = 4.0 + 3.0 * (np.floor(bg_x / 4) % 2)
+    rgb = np.where(front, 0.2, stripes)[..., None].repeat(3, axis=2).astype(np.float32)
+    depth = np.where(front, CAMERA.focus_distance_m, _depth_for(coc_bg, size)).astype(np.float32)
+    return Frame(rgb, depth, samples=samples)
+
+
+def test_depth_layers_keep_the_background_blur_off_an_in_focus_occluder():
+    """Background samples seen past the occluder's edge re-centre behind it; splatted with their
+    full disc they spill over it. In one layer the normalised reconstruction blends that spill
+    in; in depth layers the occluder's own density (1: it is in focus) hides it, so the occluder
+    is its colour exactly, as every lens ray from its pixels meets it."""
+    size, coc = 64, 6.0
+    frame = _occluder_scene(size, coc, np.random.default_rng(7))
+    db = disc_database(r_max=8.0, samples=64)
+    band = (slice(8, -8), slice(size // 2 - 6, size // 2 - 2))    # the occluder within 6 px of its edge
+    flat, _ = run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, footprint="bilinear")
+    layered, _ = run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, footprint="bilinear",
+                          depth_layers=2)
+    assert flat[band].max() > 0.5                 # the bright background (4-7) bleeds over grey 0.2
+    np.testing.assert_allclose(layered[band], 0.2, rtol=1e-4)   # float32 splat sums
+    inner = (slice(8, -8), slice(size // 2 + 10, -10))           # background away from the edge and the border
+    assert abs(layered[inner].mean() - 5.5) < 0.3     # the stripes' mean, blurred by a 6-px disc (+-0.15 residual)
+    with pytest.raises(InputError, match="depth_layers = 2: .*normalize = True"):
+        run_pass("stochastic_splat", frame, CAMERA, db, depth_layers=2)
+    with pytest.raises(InputError, match="depth_layers = 0"):
+        run_pass("stochastic_splat", frame, CAMERA, db, normalize=True, depth_layers=0)

@@ -23,6 +23,8 @@ from runtime_cl.errors import InputError
 from runtime_cl.passes.registry import register_pass
 from runtime_cl.passes.spreadlets import SplatPass, SpreadletsPass
 from runtime_cl.stochastic import CHANNELS, recentre
+from runtime_cl.stochastic.composite import check_layers, composite, layer_bins
+from runtime_cl.stochastic.recentre import FOOTPRINTS
 from runtime_cl.timing import CallTimes
 
 __all__ = ["StochasticSpreadletsPass", "StochasticSplatPass"]
@@ -36,14 +38,25 @@ class _Stochastic:
     layered = False     # re-centred slots are flat frames: no depth layers of their own
     far_field = False   # stochastic inputs have no medium (lab.reference.stochastic refuses fog)
 
-    def configure(self, *, normalize: bool = False, min_density: float = 0.25, **options):
+    def configure(self, *, normalize: bool = False, min_density: float = 0.25, footprint: str = "nearest",
+                  fill: bool = True, depth_layers: int = 1, **options):
         if not isinstance(normalize, bool):
             raise InputError(f"normalize = {normalize!r}: give True (divide by the splatted sample density) "
                              "or False (LSR18's plain sum)")
         if isinstance(min_density, bool) or not (isinstance(min_density, (int, float)) and 0 < min_density <= 1):
             raise InputError(f"min_density = {min_density!r}: give a number in (0, 1], the least density "
                              "the normalised reconstruction divides by")
-        self.normalize, self.min_density = normalize, float(min_density)
+        if footprint not in FOOTPRINTS:
+            raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)} (how a re-centred "
+                             "sample lands on the pixel grid)")
+        if not isinstance(fill, bool):
+            raise InputError(f"fill = {fill!r}: give True (fill low sample density from coarser pixels) or False "
+                             "(divide by at least min_density)")
+        if check_layers(depth_layers) > 1 and not normalize:
+            raise InputError(f"depth_layers = {depth_layers!r}: a layer's opacity is its sample density, which only "
+                             "the normalised reconstruction splats; give normalize = True or depth_layers = 1")
+        self.normalize, self.min_density, self.footprint, self.fill = normalize, float(min_density), footprint, fill
+        self.depth_layers = int(depth_layers)
         super().configure(**options)
 
     def prepare(self, frame):
@@ -51,10 +64,19 @@ class _Stochastic:
             raise InputError(f"the {self.name!r} pass reconstructs a stochastic image: it needs the channels "
                              f"{list(CHANNELS)}; give the labelled image those channels, or splat a pinhole "
                              "image with the plain pass")
-        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera)
+        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera, footprint=self.footprint)
         base = super(_Stochastic, self).prepare
-        parts = [base(f) for f in rec.frames]
-        density = [base(replace(f, rgb=n)) for f, n in zip(rec.frames, rec.counts)] if self.normalize else []
+        if self.depth_layers == 1:
+            slots = [[(f, n) for f, n in zip(rec.frames, rec.counts)]]
+        else:   # each slot split by the depth layer of its entries (empty parts skipped)
+            width = np.shape(frame.depth)[1]
+            bins = layer_bins([self.camera.coc_radius_px(np.asarray(f.depth, np.float64), width) for f in rec.frames],
+                              rec.counts, self.depth_layers)
+            slots = [[(_masked(f, b == k), n * (b == k)[..., None]) for f, n, b in zip(rec.frames, rec.counts, bins)
+                      if np.any(b == k)] for k in range(self.depth_layers)]
+            slots = [s for s in slots if s]
+        parts = [[base(f) for f, _ in layer] for layer in slots]
+        density = [[base(replace(f, rgb=n)) for f, n in layer] for layer in slots] if self.normalize else []
         return rec, parts, density
 
     def _sum(self, parts, counts: dict):
@@ -69,14 +91,25 @@ class _Stochastic:
 
     def __call__(self, prepared):
         rec, parts, density = prepared
-        counts = {}
-        total, device, transfer = self._sum(parts, counts)
-        if density:
-            weight, d2, t2 = self._sum(density, {})
-            total = total / np.maximum(weight, self.min_density)   # host work: in the call's time
+        counts, colours, weights, device, transfer = {}, [], [], 0.0, 0.0
+        for layer in parts:
+            c, d1, t1 = self._sum(layer, counts)
+            colours.append(c)
+            device, transfer = device + d1, transfer + t1
+        for layer in density:
+            w, d2, t2 = self._sum(layer, {})
+            weights.append(w)
             device, transfer = device + d2, transfer + t2
-        counts.update(slots=len(parts), dropped_samples=rec.dropped)
+        # host work: in the call's time
+        total = composite(colours, weights, self.min_density, self.fill) if self.normalize else sum(colours)
+        counts.update(slots=len(rec.frames), dropped_samples=rec.dropped, depth_layers=len(parts))
         return total, CallTimes(device_ms=device, transfer_ms=transfer, counts=counts)
+
+
+def _masked(frame, keep):
+    """``frame`` with the entries outside ``keep`` (H, W) emptied."""
+    k = keep.astype(np.float32)
+    return replace(frame, rgb=np.asarray(frame.rgb) * k[..., None], alpha=frame.coverage() * k)
 
 
 @register_pass("stochastic_spreadlets")

@@ -26,10 +26,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from runtime_cl.errors import InputError
 from runtime_cl.frame import Frame
 from runtime_cl.stochastic.samples import concentric_disc
 
-__all__ = ["Recentred", "recentre", "pinhole_positions"]
+__all__ = ["FOOTPRINTS", "Recentred", "recentre", "pinhole_positions"]
+
+FOOTPRINTS = ("nearest", "bilinear")
 
 
 @dataclass(frozen=True)
@@ -45,15 +48,15 @@ class Recentred:
     counts : tuple of (H, W, 1) float32
         Per slot, how many samples each entry holds (splatted like the colour, the sample
         density of the normalised reconstruction).
-    dropped : int
-        Samples whose y' lies outside the image.
+    dropped : float
+        Samples (bilinear: parts of samples) whose y' lies outside the image.
     max_shift_px : float
         The largest |y' - y|.
     """
 
     frames: tuple
     counts: tuple
-    dropped: int
+    dropped: float
     max_shift_px: float
 
 
@@ -84,7 +87,30 @@ def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
     return np.stack([px, py], axis=-1)
 
 
-def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_px: float = 1.0) -> Recentred:
+def _deposits(pos, w: int, h: int, footprint: str) -> tuple:
+    """Where each sample's light goes: (source index, target pixel, weight) per deposit, inside
+    the image. ``"nearest"``: the pixel holding y'; ``"bilinear"``: the four pixels around y',
+    weighted by the tent of one pixel (no sample is moved by rounding; a sample at a pixel centre,
+    as every in-focus one is, stays whole on its pixel)."""
+    if footprint == "nearest":
+        corners = [(np.floor(pos), np.ones(len(pos)))]
+    else:
+        base = np.floor(pos - 0.5)
+        frac = pos - 0.5 - base
+        corners = [(base + (i, j), np.where(i, frac[:, 0], 1.0 - frac[:, 0]) * np.where(j, frac[:, 1], 1.0 - frac[:, 1]))
+                   for i in (0, 1) for j in (0, 1)]
+    src, target, weight = [], [], []
+    for at, wt in corners:
+        tx, ty = at[:, 0], at[:, 1]
+        keep = np.flatnonzero((tx >= 0) & (tx < w) & (ty >= 0) & (ty < h) & (wt > 0.0))
+        src.append(keep)
+        target.append((ty[keep] * w + tx[keep]).astype(np.int64))
+        weight.append(wt[keep])
+    return np.concatenate(src), np.concatenate(target), np.concatenate(weight)
+
+
+def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_px: float = 1.0,
+             footprint: str = "nearest") -> Recentred:
     """Re-centre a stochastic ``frame`` (its per-pixel ``samples``: lens.U, lens.V, time).
 
     Parameters
@@ -98,11 +124,15 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         Samples landing on one pixel share an entry when their CoCs, and each component of their
         motion vectors, fall in the same bin of this many pixels (a light and the wall behind it
         have nearly the same CoC but not the same motion).
+    footprint : {"nearest", "bilinear"}
+        How a sample lands on the pixel grid (:func:`_deposits`).
 
     Returns
     -------
     Recentred
     """
+    if footprint not in FOOTPRINTS:
+        raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)}")
     rgb = np.asarray(frame.rgb, np.float32)
     h, w, nc = rgb.shape
     depth = np.asarray(frame.depth, np.float64)
@@ -110,26 +140,24 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
     pos = pinhole_positions(depth, samples, camera, motion)
     shift = pos - (np.stack(np.mgrid[0:h, 0:w][::-1], axis=-1) + 0.5)
-    tx, ty = np.floor(pos[..., 0]).ravel(), np.floor(pos[..., 1]).ravel()
-    inside = (tx >= 0) & (tx < w) & (ty >= 0) & (ty < h)
-    src = np.flatnonzero(inside)
-    target = (ty[src] * w + tx[src]).astype(np.int64)
+    src, target, weight = _deposits(pos.reshape(-1, 2), w, h, footprint)
     coc = np.asarray(camera.coc_radius_px(depth, w), np.float64).ravel()[src]
     # one entry per (target pixel, CoC group, motion group): sums of colour and alpha, means of
     # 1/Z and motion; rows sort by target pixel first
     groups = [target, np.round(coc / coc_bin_px).astype(np.int64)]
     if motion is not None:
         groups += [np.round(motion[..., k].ravel()[src] / motion_bin_px).astype(np.int64) for k in range(2)]
-    keys, entry, count = np.unique(np.stack(groups, axis=1), axis=0, return_inverse=True, return_counts=True)
+    keys, entry = np.unique(np.stack(groups, axis=1), axis=0, return_inverse=True)
     entry = entry.ravel()
     n = keys.shape[0]
-    col = np.zeros((n, nc), np.float64)
-    np.add.at(col, entry, rgb.reshape(-1, nc)[src])
-    cov = np.bincount(entry, alpha.ravel()[src], n)
-    inv_z = np.bincount(entry, 1.0 / depth.ravel()[src], n) / count
+    count = np.bincount(entry, weight, n)
+    col = np.stack([np.bincount(entry, weight * rgb.reshape(-1, nc)[src, k], n) for k in range(nc)], axis=-1)
+    cov = np.bincount(entry, weight * alpha.ravel()[src], n)
+    inv_z = np.bincount(entry, weight / depth.ravel()[src], n) / count
     flow = None
     if motion is not None:
-        flow = np.stack([np.bincount(entry, motion[..., k].ravel()[src], n) / count for k in range(2)], axis=-1)
+        flow = np.stack([np.bincount(entry, weight * motion[..., k].ravel()[src], n) / count for k in range(2)],
+                        axis=-1)
     # entries sorted by key are grouped by target pixel; the rank within the pixel is the slot
     entry_target = target[np.unique(entry, return_index=True)[1]]
     first = np.r_[0, np.flatnonzero(np.diff(entry_target)) + 1]
@@ -155,4 +183,5 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         frames.append(Frame(f_rgb.reshape(h, w, nc), f_z.reshape(h, w).astype(np.float32),
                             alpha=f_a.reshape(h, w),
                             motion=None if f_m is None else f_m.reshape(h, w, 2)))
-    return Recentred(tuple(frames), tuple(counts), int(h * w - src.size), float(np.abs(shift).max(initial=0.0)))
+    dropped = float(h * w - weight.sum())   # samples (or, bilinear, parts of samples) outside the image
+    return Recentred(tuple(frames), tuple(counts), dropped, float(np.abs(shift).max(initial=0.0)))

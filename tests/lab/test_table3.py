@@ -31,7 +31,8 @@ def test_table3_on_a_tiny_scene(tmp_path, monkeypatch):
     assert main([str(SCENES / "tiny.toml"), "--size", "32", "--out", str(tmp_path / "t3")]) == 0
     data = json.loads((tmp_path / "t3" / "report.json").read_text())
     row = data["scenes"][0]
-    assert {"stochastic_spreadlets@1", "stochastic_splat@1", "bm3d@1", "input@1"} <= set(row["methods"])
+    assert {"stochastic_spreadlets@1", "stochastic_spreadlets+norm@1", "stochastic_spreadlets+fill@1",
+            "stochastic_splat+fill@1", "bm3d@1", "input@1"} <= set(row["methods"])
     # reconstruction denoises: better than the 1-spp input it started from
     assert row["methods"]["stochastic_spreadlets@1"]["ssim"] > row["methods"]["input@1"]["ssim"]
     assert (tmp_path / "t3" / "index.html").exists()

@@ -153,6 +153,9 @@ class ThickCamera(Camera):
         if not 0 < efl < math.inf:
             raise UserError(f"{key}: the lens's focal length is {efl:.4g} mm: it forms no real image, so no ray "
                             "reaches a sensor; make it converging (e.g. a bi-convex element, radii [50, -50])")
+        if self.focus_distance_m is None:
+            raise UserError("focus_point(s): the focus is not resolved yet; load the scene with "
+                            "lab.pipeline.load_scene_and_plan (lab.focus.resolve_focus)")
         try:
             return _focused(self.rows(), self.focus_distance_m, self.sensor_width_mm, width_px)
         except UserError as exc:

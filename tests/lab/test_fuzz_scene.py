@@ -148,3 +148,10 @@ def test_found_by_fuzzing_a_volume_psf_resolution_of_the_wrong_type(value):
     data["psf"]["volume"]["psf_resolution"] = value
     with pytest.raises(UserError, match=r"tiny_fog.toml \[psf.volume\]: psf_resolution = .*must be an integer"):
         make_plan(parse_scene(data, "tiny_fog.toml"))
+
+
+def test_a_thick_lens_focus_not_yet_resolved_is_a_user_error():
+    """focus_points on a thick lens before lab.focus.resolve_focus (what the value fuzzer plans):
+    one line, not a TypeError from the lens's focusing (a case the fuzzer found)."""
+    with pytest.raises(UserError, match="focus is not resolved yet"):
+        make_plan(parse_scene(copy.deepcopy(PARSED["tiny_thick_tiltshift.toml"]), "tiny_thick_tiltshift.toml"))

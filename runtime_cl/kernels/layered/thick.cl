@@ -91,6 +91,12 @@ static void thick_ranges(global const float2 *nbuf, global const float2 *range, 
     }
 }
 
+// The sensor point (mm, x flipped: the image is inverted) of image point p (pixels, from the top left).
+static float2 sensor_mm(float2 p)
+{
+    return (float2)(-(p.x - 0.5f * W) * MM_PX, (p.y - 0.5f * H) * MM_PX);
+}
+
 // One work item per pixel: NRAYS box samples (per-pixel offsets into the jittered set, LES09 4.5),
 // each traced in every channel; with CONE each a cone (cone_colour) whose size the rays of its
 // neighbouring samples give, weighted by the fraction it found. out: the channels' weighted means
@@ -104,7 +110,7 @@ kernel void render_thick(global const float *height, global const float4 *colour
     int x = get_global_id(0), y = get_global_id(1);
     if (x >= W || y >= H)
         return;
-    float2 s = (float2)(-((float)x + 0.5f - 0.5f * W) * MM_PX, ((float)y + 0.5f - 0.5f * H) * MM_PX);
+    float2 s = sensor_mm((float2)((float)x + 0.5f, (float)y + 0.5f));
     uint o = hash_u32((uint)(y * W + x) ^ hash_u32(seed)) % NSAMPLES;
     float2 a, b, amin = (float2)(INFINITY), amax = (float2)(-INFINITY), bmin = amin, bmax = amax;
     float weight;
@@ -168,7 +174,7 @@ kernel void thick_rays(global const float4 *pixel_u, global const int *channel, 
     if (i >= n)
         return;
     float4 pu = pixel_u[i];
-    float2 s = (float2)(-(pu.x - 0.5f * W) * MM_PX, (pu.y - 0.5f * H) * MM_PX);
+    float2 s = sensor_mm(pu.xy);
     float2 a, b;
     float wt;
     bool ok = thick_ray(s, pu.zw, channel[i], boxes, &a, &b, &wt);
@@ -186,7 +192,7 @@ kernel void thick_cones(global const float4 *pixel_u, global const int *channel,
     if (i >= n)
         return;
     float4 pu = pixel_u[i];
-    float2 s = (float2)(-(pu.x - 0.5f * W) * MM_PX, (pu.y - 0.5f * H) * MM_PX);
+    float2 s = sensor_mm(pu.xy);
     float2 a, b;
     float wt;
     float d = 0.0f;

@@ -94,6 +94,36 @@ class Plan:
         return "\n".join(lines)
 
 
+# The PSF models whose spreadlet passes the plan runs in global depth layers: the volume models add
+# each pixel's unscattered light on its own pixel, which layers do not composite (the pass refuses
+# them), and the physical lens's layered render has no test behind it yet.
+DEPTH_LAYER_MODELS = ("simple_lens", "combined", "stylized")
+LAYERED_METHODS = ("spreadlets", "splat", "filter")
+
+
+def _with_depth_layers(rule: dict, scene, skipped: list) -> dict:
+    """``[render] depth_layers``: the plan's spreadlet passes again in that many global depth layers
+    (LSR18 6.2; labels ``spreadlets_layers``, ...), or a skipped step saying why they cannot be."""
+    n = scene.render.depth_layers
+    if n is None:
+        return rule
+    methods = [m for m in LAYERED_METHODS if m in rule["runtime_passes"]]
+    why = None
+    if not methods:
+        why = "this camera's plan has no spreadlet passes (spreadlets, splat, filter)"
+    elif not set(rule["psf_models"]) <= set(DEPTH_LAYER_MODELS):
+        why = (f"the {', '.join(rule['psf_models'])} database's passes do not draw in layers (they do for "
+               f"{', '.join(DEPTH_LAYER_MODELS)})")
+    elif rule["dof"] == "none":
+        why = "a pinhole has no depth of field: every pixel is in one layer of signed CoC 0"
+    if why is not None:
+        skipped.append(Step(f"depth_layers = {n}", why))
+        return rule
+    labels = tuple(f"{m}_layers" for m in methods)
+    runs = dict(rule.get("pass_runs", {}), **{label: (m, {"layers": n}) for label, m in zip(labels, methods)})
+    return dict(rule, runtime_passes=tuple(rule["runtime_passes"]) + labels, pass_runs=runs)
+
+
 def make_plan(scene) -> Plan:
     """Decide the effects, PSF models, references, inputs and runtime passes for ``scene``.
 
@@ -122,6 +152,7 @@ def make_plan(scene) -> Plan:
         skipped.append(Step("participating medium", "the scene has no medium"))
     if rule["aperture"] == "circle":
         skipped.append(Step("polygonal bokeh (MHU21)", "the thin-lens aperture is a circle"))
+    rule = _with_depth_layers(rule, scene, skipped)
     unused = sorted(set(scene.psf) - set(rule["psf_models"]))
     if unused:
         skipped.append(Step(f"[psf.{', psf.'.join(unused)}]", "given in the scene but not needed by "

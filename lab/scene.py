@@ -98,8 +98,9 @@ class RenderSettings:
 
     ``guard_band`` (default false): render the labelled input with a margin of the largest CoC
     plus half the largest motion around the frame (LSR18 "Boundary"; :mod:`lab.reference.guard_band`).
-    ``depth_layers`` (optional): the thin camera's plan adds the spreadlet passes with this many
-    global depth layers (labels ``spreadlets_layers``, ...; the passes' option ``layers``).
+    ``depth_layers`` (optional): a thin lens's plan (round, moving or stylized) adds its spreadlet
+    passes with this many global depth layers (labels ``spreadlets_layers``, ...; the passes'
+    option ``layers``); other plans say in their skipped steps why they cannot.
     ``reference_adaptive`` (optional): spend extra reference samples where its noise is
     (:class:`AdaptiveSettings`).
     """

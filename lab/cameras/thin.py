@@ -227,11 +227,6 @@ class ThinCamera(Camera):
             "runtime_passes": ("spreadlets", "splat", "filter"),
             "skipped": (),
         }
-        if r.depth_layers is not None:  # LSR18 6.2: the spreadlet passes in global depth layers too
-            labels = tuple(f"{name}_layers" for name in rule["runtime_passes"])
-            rule["runtime_passes"] += labels
-            rule["pass_runs"] = {label: (name, {"layers": r.depth_layers})
-                                 for label, name in zip(labels, ("spreadlets", "splat", "filter"))}
         return with_layered_pass(rule, scene)
 
     def _tilt_note(self) -> str:

@@ -56,3 +56,33 @@ def test_depth_layers_add_the_layered_spreadlet_passes_to_the_plan():
     assert plan.pass_run("splat_layers") == ("splat", {"layers": 4})
     assert plan.pass_run("spreadlets") == ("spreadlets", {})
     assert "guard band" in plan.inputs[0].detail
+
+
+def _plan(camera: dict, **shape_keys):
+    data = {"scene": {"name": "p", "resolution": [16, 8]},
+            "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], **camera},
+            "render": {"reference_spp": 32, "input_spp": 8, "depth_layers": 2},
+            "materials": {"m": {"reflectance": [0.5, 0.5, 0.5]}},
+            "shapes": [{"type": "sphere", "material": "m", "center": [0, 0, 3], "radius": 0.3, **shape_keys}],
+            "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}
+    return make_plan(parse_scene(data, "p.toml"))
+
+
+THIN = {"model": "thin", "focal_length_mm": 50, "f_number": 2, "focus_distance_m": 3}
+
+
+@pytest.mark.parametrize("camera, shape", [
+    (THIN, {"velocity": [0.1, 0, 0]}),                              # combined
+    (dict(THIN, aperture={"shape": "star"}), {}),                   # stylized
+])
+def test_depth_layers_reach_moving_and_stylized_thin_lens_plans(camera, shape):
+    plan = _plan(camera, **shape)
+    assert plan.runtime_passes[-3:] == ("spreadlets_layers", "splat_layers", "filter_layers")
+    assert plan.pass_run("spreadlets_layers") == ("spreadlets", {"layers": 2})
+
+
+def test_depth_layers_a_plan_cannot_draw_are_skipped_with_the_reason():
+    plan = _plan({"model": "pinhole", "fov_deg": 40}, velocity=[0.1, 0, 0])
+    assert not any(p.endswith("_layers") for p in plan.runtime_passes)
+    [step] = [s for s in plan.skipped if s.name == "depth_layers = 2"]
+    assert "pinhole" in step.detail

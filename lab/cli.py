@@ -189,6 +189,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="polygon: edge directions with run and rise up to M (default 2, MHU21's D)")
     p.add_argument("--edges", type=int, metavar="N",
                    help="polygon: most edges of the rectified aperture (default: its corners, <= 16)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
+                   help="an option of the method (repeatable; VALUE is a TOML value), e.g. --set soft_layers=0.5 "
+                        "(spreadlets, splat, filter with --layers), --set spreadlet_rotation=bank; stochastic_*: "
+                        "--set normalize=true --set footprint=bilinear --set depth_layers=4 (the full "
+                        "reconstruction of LSR18 Table 3's +fill column); layered: --set interpolate_hidden=false; "
+                        "a name the method does not take is an error listing the ones it does")
     p.add_argument("--out", type=Path, required=True, help="output EXR (R, G, B)")
     p.add_argument("--camera", type=Path, help="camera TOML ([camera] table) overriding the EXR header")
     p.add_argument("--focus-point", metavar="X,Y",

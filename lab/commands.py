@@ -160,6 +160,30 @@ def _check_render_options(args, cls) -> None:
                         "--aperture is for a method that draws the aperture (--method polygon)")
 
 
+# Pass options that have their own flag (or are decided from the input), so not --set.
+FLAGGED_OPTIONS = {"integrator": "--integrator NAME", "rays": "--rays N", "cone": "--cone", "max_layers": "--layers N",
+                   "aperture": "--aperture NAME", "far_field": "--far-db FILE",
+                   "layered_input": "--layers N (the EXR's layerN.* channels decide)"}
+
+
+def _pass_sets(args, cls) -> dict:
+    """``--set KEY=VALUE`` as options of the pass ``cls``: a key it does not take, or one with its
+    own flag, is an error naming the options it does take (the pass checks the values)."""
+    from runtime_cl.passes import pass_options
+
+    from .precompute.target import parse_sets
+
+    table = parse_sets(getattr(args, "sets", None), example="soft_layers=0.5")
+    free = [k for k in pass_options(cls) if k not in FLAGGED_OPTIONS]
+    for key, value in table.items():
+        if key in FLAGGED_OPTIONS:
+            raise UserError(f"--set {key}={value!r}: give it as {FLAGGED_OPTIONS[key]}")
+        if key not in free:
+            raise UserError(f"--set {key}={value!r}: --method {args.method} has no option {key!r}; "
+                            + (f"its options are {', '.join(free)}" if free else "it takes no options"))
+    return table
+
+
 def cmd_render(args) -> int:
     from runtime_cl.passes import get_pass, run_pass
     from runtime_cl.psf.database import SpreadletDatabase
@@ -170,6 +194,7 @@ def cmd_render(args) -> int:
 
     cls = get_pass(args.method)
     _check_render_options(args, cls)
+    sets = _pass_sets(args, cls)
     check_output(args.out, "--out", (args.input, args.db, args.far_db, args.camera), ".exr")
     image = read_input(args.input, args.camera)
     if getattr(args, "focus_point", None) is not None:
@@ -179,7 +204,7 @@ def cmd_render(args) -> int:
     db = None if args.db is None else SpreadletDatabase.load(args.db)
     if db is not None:
         check_header(db, image.camera, f"{args.input} camera")
-    options, said = {}, ""
+    options, said = dict(sets), ""
     if args.integrator is not None:
         options["integrator"] = args.integrator
         said = f" ({args.integrator} integration)"

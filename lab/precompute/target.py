@@ -29,8 +29,9 @@ class Target:
     path: Path | None = None
 
 
-def parse_sets(items) -> dict:
-    """``["key=value", ...]`` from ``--set`` as a table of TOML values.
+def parse_sets(items, example: str = "max_coc_px=64") -> dict:
+    """``["key=value", ...]`` from ``--set`` as a table of TOML values (text that is no TOML value
+    stays a string); ``example`` is the one the messages show.
 
     Raises
     ------
@@ -43,7 +44,7 @@ def parse_sets(items) -> dict:
         key = key.strip()
         if not sep or not _KEY.match(key):
             raise UserError(f"--set {item!r}: expected KEY=VALUE with KEY a setting name, "
-                            "e.g. --set max_coc_px=64")
+                            f"e.g. --set {example}")
         if key in table:
             raise UserError(f"--set {key}: given twice ({table[key]!r} and {text.strip()!r}); keep one")
         try:

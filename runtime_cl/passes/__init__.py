@@ -8,7 +8,8 @@ from runtime_cl.passes import polygon  # noqa: F401  (registers "polygon")
 from runtime_cl.passes import layered  # noqa: F401  (registers "layered")
 from runtime_cl.passes import identity  # noqa: F401  (registers "identity")
 from runtime_cl.passes import stochastic  # noqa: F401  (registers "stochastic_spreadlets", "stochastic_splat")
-from runtime_cl.passes.registry import (RuntimePass, get_pass, integrating_passes, pass_names, register_pass,
-                                       run_pass)
+from runtime_cl.passes.registry import (RuntimePass, get_pass, integrating_passes, pass_names, pass_options,
+                                       register_pass, run_pass)
 
-__all__ = ["RuntimePass", "get_pass", "integrating_passes", "pass_names", "register_pass", "run_pass"]
+__all__ = ["RuntimePass", "get_pass", "integrating_passes", "pass_names", "pass_options", "register_pass",
+           "run_pass"]

@@ -14,6 +14,7 @@ three and times the calls with :func:`runtime_cl.timing.measure`.
 from __future__ import annotations
 
 import abc
+import inspect
 import time
 from typing import ClassVar
 
@@ -21,7 +22,8 @@ from runtime_cl.errors import InputError
 from runtime_cl.registry import Registry
 from runtime_cl.timing import measure
 
-__all__ = ["RuntimePass", "register_pass", "get_pass", "integrating_passes", "pass_names", "run_pass"]
+__all__ = ["RuntimePass", "register_pass", "get_pass", "integrating_passes", "pass_names", "pass_options",
+           "run_pass"]
 
 _PASSES = Registry("runtime pass", sort=False)   # registration order is report order
 
@@ -124,6 +126,20 @@ def pass_names() -> list[str]:
 def integrating_passes() -> list[str]:
     """The passes that take the option ``integrator``."""
     return [n for n in pass_names() if _PASSES.get(n).integrates]
+
+
+def pass_options(cls) -> dict:
+    """The keyword options of the pass class ``cls`` and their defaults: its ``configure``'s, and
+    those of the base classes' ``configure`` its ``**options`` hands on to."""
+    out: dict = {}
+    for klass in cls.__mro__:
+        if "configure" not in vars(klass):
+            continue
+        params = inspect.signature(vars(klass)["configure"]).parameters
+        out.update({k: p.default for k, p in params.items() if p.kind is p.KEYWORD_ONLY and k not in out})
+        if not any(p.kind is p.VAR_KEYWORD for p in params.values()) or klass is RuntimePass:
+            break
+    return out
 
 
 def get_pass(name: str) -> type:

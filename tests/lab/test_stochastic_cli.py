@@ -53,3 +53,40 @@ def test_bad_stochastic_exr(work, capfd, channels, needles):
     assert not (work / "o.exr").exists()
     for needle in [str(work / "in.exr")] + needles:
         assert needle in err[0], (needle, err[0])
+
+
+def test_set_gives_the_pass_its_options(work):
+    """--set reaches the pass: the full reconstruction (Table 3's +fill) is the runtime pass run
+    with those options, and differs from the default plain sum."""
+    from lab.runtime_passes import frame_of, read_input, runtime_camera
+    from runtime_cl.passes import run_pass
+    from runtime_cl.psf.database import SpreadletDatabase
+
+    _write(work / "in.exr")
+    full = {"normalize": True, "footprint": "bilinear", "depth_layers": 4}
+    sets = ["--set", "normalize=true", "--set", "footprint=bilinear", "--set", "depth_layers=4"]
+    for name, extra in (("plain.exr", []), ("full.exr", sets)):
+        assert main(["render", str(work / "in.exr"), "--method", "stochastic_spreadlets", "--db",
+                     str(work / "db.spdb"), "--out", str(work / name)] + extra) == 0
+    image, db = read_input(work / "in.exr", None), SpreadletDatabase.load(work / "db.spdb")
+    frame = frame_of(image, str(work / "in.exr"), db, False, True)
+    want, _ = run_pass("stochastic_spreadlets", frame, runtime_camera(image, "in.exr camera"), db, **full)
+    np.testing.assert_array_equal(read_rgb(work / "full.exr"), want[..., :3])
+    assert np.abs(read_rgb(work / "full.exr") - read_rgb(work / "plain.exr")).max() > 1e-3
+
+
+@pytest.mark.parametrize("item, needles", [
+    ("normalise=true", ["--set normalise=True", "no option 'normalise'", "normalize, min_density, footprint"]),
+    ("integrator=exact", ["--set integrator='exact'", "give it as --integrator NAME"]),
+    ("footprint=round", ["footprint = 'round'", "'nearest'", "'bilinear'"]),
+    ("normalize", ["--set 'normalize'", "expected KEY=VALUE"]),
+])
+def test_bad_set(work, capfd, item, needles):
+    _write(work / "in.exr")
+    code = main(["render", str(work / "in.exr"), "--method", "stochastic_spreadlets", "--db", str(work / "db.spdb"),
+                 "--set", item, "--out", str(work / "o.exr")])
+    err = capfd.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, (code, err)
+    assert not (work / "o.exr").exists()
+    for needle in needles:
+        assert needle in err[0], (needle, err[0])

@@ -12,6 +12,11 @@ re-centred samples of one surface lie at random places, so their plain sum fluct
 1 / sqrt(pi r^2) of a CoC of radius r even where the colour is constant; the ratio does not.
 Where surfaces of different depths mix (a focused background behind a blurred occluder) the
 ratio leans towards the blurred surface, so it trades that noise for a bias there.
+
+Option ``keep_outside`` (default True): samples re-centred outside the image (they saw a surface
+beyond the frame through the lens) are splatted from a margin around it with the camera widened at
+the same pixel pitch, and the margin is cropped; False drops them (a tilted or expressive focus
+always does: :func:`runtime_cl.stochastic.recentre.widened`).
 """
 from __future__ import annotations
 
@@ -24,7 +29,7 @@ from runtime_cl.passes.registry import register_pass
 from runtime_cl.passes.spreadlets import SplatPass, SpreadletsPass
 from runtime_cl.stochastic import CHANNELS, recentre
 from runtime_cl.stochastic.composite import check_layers, composite, layer_bins
-from runtime_cl.stochastic.recentre import FOOTPRINTS
+from runtime_cl.stochastic.recentre import FOOTPRINTS, outside_margin, widened
 from runtime_cl.timing import CallTimes
 
 __all__ = ["StochasticSpreadletsPass", "StochasticSplatPass"]
@@ -39,7 +44,7 @@ class _Stochastic:
     far_field = False   # stochastic inputs have no medium (lab.reference.stochastic refuses fog)
 
     def configure(self, *, normalize: bool = False, min_density: float = 0.25, footprint: str = "nearest",
-                  fill: bool = True, depth_layers: int = 1, **options):
+                  fill: bool = True, depth_layers: int = 1, keep_outside: bool = True, **options):
         if not isinstance(normalize, bool):
             raise InputError(f"normalize = {normalize!r}: give True (divide by the splatted sample density) "
                              "or False (LSR18's plain sum)")
@@ -55,7 +60,11 @@ class _Stochastic:
         if check_layers(depth_layers) > 1 and not normalize:
             raise InputError(f"depth_layers = {depth_layers!r}: a layer's opacity is its sample density, which only "
                              "the normalised reconstruction splats; give normalize = True or depth_layers = 1")
+        if not isinstance(keep_outside, bool):
+            raise InputError(f"keep_outside = {keep_outside!r}: give True (splat the samples re-centred outside "
+                             "the image from a margin) or False (drop them)")
         self.normalize, self.min_density, self.footprint, self.fill = normalize, float(min_density), footprint, fill
+        self.keep_outside = keep_outside
         self.depth_layers = int(depth_layers)
         super().configure(**options)
 
@@ -64,8 +73,10 @@ class _Stochastic:
             raise InputError(f"the {self.name!r} pass reconstructs a stochastic image: it needs the channels "
                              f"{list(CHANNELS)}; give the labelled image those channels, or splat a pinhole "
                              "image with the plain pass")
-        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera, footprint=self.footprint)
-        base = super(_Stochastic, self).prepare
+        samples = np.asarray(frame.samples, np.float32)
+        margin = (outside_margin(frame.depth, samples, self.camera, frame.motion) if self.keep_outside else 0)
+        rec = recentre(frame, samples, self.camera, footprint=self.footprint, margin=margin)
+        base = self._wide_prepare(np.shape(frame.depth)[1], margin)
         if self.depth_layers == 1:
             slots = [[(f, n) for f, n in zip(rec.frames, rec.counts)]]
         else:   # each slot split by the depth layer of its entries (empty parts skipped)
@@ -78,6 +89,19 @@ class _Stochastic:
         parts = [[base(f) for f, _ in layer] for layer in slots]
         density = [[base(replace(f, rgb=n)) for f, n in layer] for layer in slots] if self.normalize else []
         return rec, parts, density
+
+    def _wide_prepare(self, width: int, margin: int):
+        """The base pass's ``prepare`` for frames ``margin`` px wider than the image on every side:
+        its PSF coordinates from the camera widened at the same pixel pitch."""
+        camera, wide = self.camera, widened(self.camera, width, margin)
+
+        def prepare(f):
+            self.camera = wide
+            try:
+                return super(_Stochastic, self).prepare(f)
+            finally:
+                self.camera = camera
+        return prepare
 
     def _sum(self, parts, counts: dict):
         total, device, transfer = None, 0.0, 0.0
@@ -102,7 +126,9 @@ class _Stochastic:
             device, transfer = device + d2, transfer + t2
         # host work: in the call's time
         total = composite(colours, weights, self.min_density, self.fill) if self.normalize else sum(colours)
-        counts.update(slots=len(rec.frames), dropped_samples=rec.dropped, depth_layers=len(parts))
+        m = rec.margin
+        total = np.ascontiguousarray(total[m:total.shape[0] - m, m:total.shape[1] - m])
+        counts.update(slots=len(rec.frames), dropped_samples=rec.dropped, depth_layers=len(parts), margin_px=m)
         return total, CallTimes(device_ms=device, transfer_ms=transfer, counts=counts)
 
 

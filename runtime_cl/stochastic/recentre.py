@@ -17,12 +17,18 @@ target pixel can receive samples of different surfaces (an edge seen past a blur
 samples whose CoCs and motions agree within ``coc_bin_px`` and ``motion_bin_px`` share one entry
 (their depth and motion averaged);
 the others go to further frames (*slots*), so each surface keeps its own PSF. The frames are
-splatted separately and summed (splatting is linear). Samples whose y' leaves the image are
-dropped, as a pinhole input holds nothing outside the frame.
+splatted separately and summed (splatting is linear).
+
+Samples whose y' leaves the image saw a surface outside the frame through the lens (a lamp just
+above it, whose bokeh reaches in): with ``margin`` the frames are that much wider on every side,
+so those samples keep their light and their PSFs spread it back into the frame (the caller
+splats the wider frames with :func:`widened` camera and crops the margin). Without a margin, or
+beyond it, they are dropped, as a pinhole input holds nothing outside the frame.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -30,7 +36,7 @@ from runtime_cl.errors import InputError
 from runtime_cl.frame import Frame
 from runtime_cl.stochastic.samples import concentric_disc
 
-__all__ = ["FOOTPRINTS", "Recentred", "recentre", "pinhole_positions"]
+__all__ = ["FOOTPRINTS", "Recentred", "recentre", "pinhole_positions", "outside_margin", "widened"]
 
 FOOTPRINTS = ("nearest", "bilinear")
 
@@ -52,12 +58,38 @@ class Recentred:
         Samples (bilinear: parts of samples) whose y' lies outside the image.
     max_shift_px : float
         The largest |y' - y|.
+    margin : int
+        Pixels the frames reach beyond the image on every side (0: the image's size).
     """
 
     frames: tuple
     counts: tuple
     dropped: float
     max_shift_px: float
+    margin: int = 0
+
+
+def widened(camera, width: int, margin: int):
+    """``camera`` for an image ``margin`` px wider on every side at the same pixel pitch, so CoCs
+    in pixels stay those of the ``width``-px image; None where no such camera is known here (a
+    tilted or expressive focus: its focus map is laid out on the image's own pixels)."""
+    if margin == 0 or getattr(camera, "lens", None) == "pinhole":   # no CoC: nothing scales
+        return camera
+    if getattr(camera, "lens", None) != "thin" or camera.has_focal_map:
+        return None
+    return replace(camera, sensor_width_mm=camera.sensor_width_mm * (width + 2 * margin) / width)
+
+
+def outside_margin(depth, samples, camera, motion=None) -> int:
+    """The margin that keeps every re-centred sample (the largest |y' - y|, rounded up), at most
+    half the image's larger side (a wider blur's farthest samples are dropped); 0 where
+    :func:`widened` knows no camera for the wider frames."""
+    h, w = np.shape(depth)
+    if widened(camera, w, 1) is None:
+        return 0
+    pos = pinhole_positions(depth, samples, camera, motion)
+    shift = pos - (np.stack(np.mgrid[0:h, 0:w][::-1], axis=-1) + 0.5)
+    return int(min(math.ceil(float(np.abs(shift).max(initial=0.0))) + 1, max(h, w) // 2))
 
 
 def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
@@ -110,7 +142,7 @@ def _deposits(pos, w: int, h: int, footprint: str) -> tuple:
 
 
 def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_px: float = 1.0,
-             footprint: str = "nearest") -> Recentred:
+             footprint: str = "nearest", margin: int = 0) -> Recentred:
     """Re-centre a stochastic ``frame`` (its per-pixel ``samples``: lens.U, lens.V, time).
 
     Parameters
@@ -126,6 +158,9 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         have nearly the same CoC but not the same motion).
     footprint : {"nearest", "bilinear"}
         How a sample lands on the pixel grid (:func:`_deposits`).
+    margin : int, default 0
+        Frames this many pixels wider on every side, holding the samples re-centred outside the
+        image (:func:`outside_margin`); their empty entries take the nearest image pixel's depth.
 
     Returns
     -------
@@ -133,15 +168,19 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     """
     if footprint not in FOOTPRINTS:
         raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)}")
+    if isinstance(margin, bool) or not isinstance(margin, (int, np.integer)) or margin < 0:
+        raise InputError(f"margin = {margin!r}: give the pixels (an integer >= 0) the re-centred frames "
+                         "reach beyond the image")
     rgb = np.asarray(frame.rgb, np.float32)
-    h, w, nc = rgb.shape
+    h0, w0, nc = rgb.shape
+    h, w = h0 + 2 * margin, w0 + 2 * margin
     depth = np.asarray(frame.depth, np.float64)
     alpha = frame.coverage()
     motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
     pos = pinhole_positions(depth, samples, camera, motion)
-    shift = pos - (np.stack(np.mgrid[0:h, 0:w][::-1], axis=-1) + 0.5)
-    src, target, weight = _deposits(pos.reshape(-1, 2), w, h, footprint)
-    coc = np.asarray(camera.coc_radius_px(depth, w), np.float64).ravel()[src]
+    shift = pos - (np.stack(np.mgrid[0:h0, 0:w0][::-1], axis=-1) + 0.5)
+    src, target, weight = _deposits(pos.reshape(-1, 2) + margin, w, h, footprint)
+    coc = np.asarray(camera.coc_radius_px(depth, w0), np.float64).ravel()[src]
     # one entry per (target pixel, CoC group, motion group): sums of colour and alpha, means of
     # 1/Z and motion; rows sort by target pixel first
     groups = [target, np.round(coc / coc_bin_px).astype(np.int64)]
@@ -170,7 +209,8 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         f_rgb[t] = col[sel]
         f_a = np.zeros(h * w, np.float32)
         f_a[t] = np.minimum(cov[sel], 1.0)
-        f_z = depth.ravel().copy()   # empty entries keep the input's depth: inside any range it fits
+        # empty entries keep the (nearest) input depth: inside any range the database fits
+        f_z = np.pad(depth, margin, mode="edge").ravel()
         with np.errstate(divide="ignore"):
             f_z[t] = 1.0 / inv_z[sel]
         f_n = np.zeros(h * w, np.float32)
@@ -183,5 +223,5 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         frames.append(Frame(f_rgb.reshape(h, w, nc), f_z.reshape(h, w).astype(np.float32),
                             alpha=f_a.reshape(h, w),
                             motion=None if f_m is None else f_m.reshape(h, w, 2)))
-    dropped = float(h * w - weight.sum())   # samples (or, bilinear, parts of samples) outside the image
-    return Recentred(tuple(frames), tuple(counts), dropped, float(np.abs(shift).max(initial=0.0)))
+    dropped = float(h0 * w0 - weight.sum())   # samples (or, bilinear, parts of samples) outside the frames
+    return Recentred(tuple(frames), tuple(counts), dropped, float(np.abs(shift).max(initial=0.0)), int(margin))

@@ -16,7 +16,7 @@ ratio leans towards the blurred surface, so it trades that noise for a bias ther
 Option ``keep_outside`` (default True): samples re-centred outside the image (they saw a surface
 beyond the frame through the lens) are splatted from a margin around it with the camera widened at
 the same pixel pitch, and the margin is cropped; False drops them (a tilted or expressive focus
-always does: :func:`runtime_cl.stochastic.recentre.widened`).
+always does: :func:`runtime_cl.stochastic.recentre.recentre`).
 """
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ from runtime_cl.passes.registry import register_pass
 from runtime_cl.passes.spreadlets import SplatPass, SpreadletsPass
 from runtime_cl.stochastic import CHANNELS, recentre
 from runtime_cl.stochastic.composite import check_layers, composite, layer_bins
-from runtime_cl.stochastic.recentre import FOOTPRINTS, outside_margin, widened
+from runtime_cl.stochastic.recentre import FOOTPRINTS, widened
 from runtime_cl.timing import CallTimes
 
 __all__ = ["StochasticSpreadletsPass", "StochasticSplatPass"]
@@ -73,10 +73,9 @@ class _Stochastic:
             raise InputError(f"the {self.name!r} pass reconstructs a stochastic image: it needs the channels "
                              f"{list(CHANNELS)}; give the labelled image those channels, or splat a pinhole "
                              "image with the plain pass")
-        samples = np.asarray(frame.samples, np.float32)
-        margin = (outside_margin(frame.depth, samples, self.camera, frame.motion) if self.keep_outside else 0)
-        rec = recentre(frame, samples, self.camera, footprint=self.footprint, margin=margin)
-        base = self._wide_prepare(np.shape(frame.depth)[1], margin)
+        rec = recentre(frame, np.asarray(frame.samples, np.float32), self.camera, footprint=self.footprint,
+                       keep_outside=self.keep_outside)
+        base = self._wide_prepare(np.shape(frame.depth)[1], rec.margin)
         if self.depth_layers == 1:
             slots = [[(f, n) for f, n in zip(rec.frames, rec.counts)]]
         else:   # each slot split by the depth layer of its entries (empty parts skipped)

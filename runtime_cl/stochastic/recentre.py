@@ -36,7 +36,7 @@ from runtime_cl.errors import InputError
 from runtime_cl.frame import Frame
 from runtime_cl.stochastic.samples import concentric_disc
 
-__all__ = ["FOOTPRINTS", "Recentred", "recentre", "pinhole_positions", "outside_margin", "widened"]
+__all__ = ["FOOTPRINTS", "Recentred", "recentre", "pinhole_positions", "widened"]
 
 FOOTPRINTS = ("nearest", "bilinear")
 
@@ -69,27 +69,22 @@ class Recentred:
     margin: int = 0
 
 
+def _widens(camera) -> bool:
+    """Whether :func:`widened` knows a camera for wider frames (not for a tilted or expressive
+    focus: its focus map is laid out on the image's own pixels)."""
+    lens = getattr(camera, "lens", None)
+    return lens == "pinhole" or (lens == "thin" and not camera.has_focal_map)
+
+
 def widened(camera, width: int, margin: int):
     """``camera`` for an image ``margin`` px wider on every side at the same pixel pitch, so CoCs
-    in pixels stay those of the ``width``-px image; None where no such camera is known here (a
-    tilted or expressive focus: its focus map is laid out on the image's own pixels)."""
-    if margin == 0 or getattr(camera, "lens", None) == "pinhole":   # no CoC: nothing scales
+    in pixels stay those of the ``width``-px image (a pinhole has none: unchanged)."""
+    if margin == 0 or getattr(camera, "lens", None) == "pinhole":
         return camera
-    if getattr(camera, "lens", None) != "thin" or camera.has_focal_map:
-        return None
+    if not _widens(camera):
+        raise InputError(f"a {getattr(camera, 'lens', None)!r} camera with a per-pixel focus cannot be widened "
+                         "beyond its image; re-centre without a margin (keep_outside = False)")
     return replace(camera, sensor_width_mm=camera.sensor_width_mm * (width + 2 * margin) / width)
-
-
-def outside_margin(depth, samples, camera, motion=None) -> int:
-    """The margin that keeps every re-centred sample (the largest |y' - y|, rounded up), at most
-    half the image's larger side (a wider blur's farthest samples are dropped); 0 where
-    :func:`widened` knows no camera for the wider frames."""
-    h, w = np.shape(depth)
-    if widened(camera, w, 1) is None:
-        return 0
-    pos = pinhole_positions(depth, samples, camera, motion)
-    shift = pos - (np.stack(np.mgrid[0:h, 0:w][::-1], axis=-1) + 0.5)
-    return int(min(math.ceil(float(np.abs(shift).max(initial=0.0))) + 1, max(h, w) // 2))
 
 
 def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
@@ -142,7 +137,7 @@ def _deposits(pos, w: int, h: int, footprint: str) -> tuple:
 
 
 def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_px: float = 1.0,
-             footprint: str = "nearest", margin: int = 0) -> Recentred:
+             footprint: str = "nearest", keep_outside: bool = False) -> Recentred:
     """Re-centre a stochastic ``frame`` (its per-pixel ``samples``: lens.U, lens.V, time).
 
     Parameters
@@ -158,9 +153,11 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         have nearly the same CoC but not the same motion).
     footprint : {"nearest", "bilinear"}
         How a sample lands on the pixel grid (:func:`_deposits`).
-    margin : int, default 0
-        Frames this many pixels wider on every side, holding the samples re-centred outside the
-        image (:func:`outside_margin`); their empty entries take the nearest image pixel's depth.
+    keep_outside : bool, default False
+        Make the frames wider on every side by the largest |y' - y| (rounded up, at most half the
+        image's larger side), so they hold the samples re-centred outside the image (splat them
+        with :func:`widened` camera); their empty entries take the nearest image pixel's depth.
+        Cameras :func:`widened` cannot widen get no margin.
 
     Returns
     -------
@@ -168,17 +165,16 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     """
     if footprint not in FOOTPRINTS:
         raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)}")
-    if isinstance(margin, bool) or not isinstance(margin, (int, np.integer)) or margin < 0:
-        raise InputError(f"margin = {margin!r}: give the pixels (an integer >= 0) the re-centred frames "
-                         "reach beyond the image")
     rgb = np.asarray(frame.rgb, np.float32)
     h0, w0, nc = rgb.shape
-    h, w = h0 + 2 * margin, w0 + 2 * margin
     depth = np.asarray(frame.depth, np.float64)
     alpha = frame.coverage()
     motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
     pos = pinhole_positions(depth, samples, camera, motion)
     shift = pos - (np.stack(np.mgrid[0:h0, 0:w0][::-1], axis=-1) + 0.5)
+    largest = float(np.abs(shift).max(initial=0.0))
+    margin = min(math.ceil(largest) + 1, max(h0, w0) // 2) if keep_outside and _widens(camera) else 0
+    h, w = h0 + 2 * margin, w0 + 2 * margin
     src, target, weight = _deposits(pos.reshape(-1, 2) + margin, w, h, footprint)
     coc = np.asarray(camera.coc_radius_px(depth, w0), np.float64).ravel()[src]
     # one entry per (target pixel, CoC group, motion group): sums of colour and alpha, means of
@@ -224,4 +220,4 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
                             alpha=f_a.reshape(h, w),
                             motion=None if f_m is None else f_m.reshape(h, w, 2)))
     dropped = float(h0 * w0 - weight.sum())   # samples (or, bilinear, parts of samples) outside the frames
-    return Recentred(tuple(frames), tuple(counts), dropped, float(np.abs(shift).max(initial=0.0)), int(margin))
+    return Recentred(tuple(frames), tuple(counts), dropped, largest, int(margin))

@@ -62,7 +62,8 @@ def build_cell(model, cell: int) -> dict:
     traced = model.trace_checked(cell, seed=cfg.seed)
     t1 = time.perf_counter()
     psf = traced.psf
-    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced))
+    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced),
+                  basis=getattr(cfg, "basis", "laplacian"))
     t2 = time.perf_counter()
     stats = {k: float(v) for k, v in sp.stats.items()}
     values, dense = sp.values, dense_crop(psf)

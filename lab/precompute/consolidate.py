@@ -23,7 +23,7 @@ __all__ = ["database_params", "consolidate"]
 def database_params(model, digest: str) -> dict:
     """The ``params`` the database header stores for ``model`` built under hash ``digest``."""
     return {"config": to_table(model.config), "hash": digest, "symmetries": list(model.symmetries),
-            "fingerprint": model.fingerprint()}
+            "fingerprint": model.fingerprint(), "basis": getattr(model.config, "basis", "laplacian")}
 
 
 def consolidate(model, digest: str, folder: Path, out: Path) -> None:

@@ -47,14 +47,17 @@ from .lloyd import lloyd
 from .merge import merge_coincident
 from .moments import MomentMatch
 from .noise import K_SIGMA, coarse_laplacian, denoise
+from .rows import LAMBDA, fit_rows, row_terms
 from .stats import dense_count, similarity
 from .validate import check_params, check_psf
 from .voronoi import assign, collapse
 
-__all__ = ["sparsify", "SparsePSF", "MASS"]
+__all__ = ["sparsify", "SparsePSF", "MASS", "BASES"]
 
 # Importance mass per dart-throwing disk at density 1 (see the module docstring).
 MASS = 0.25
+# What spreadlet values are: LSR18's Laplacian, or row differences (.rows)
+BASES = ("laplacian", "rows")
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,6 +83,9 @@ class SparsePSF:
         On the fast track, the PSF's nonzero bounding box.
     dense_origin : (int, int)
         ``(dx, dy)`` of ``dense[0, 0]`` relative to the PSF centre.
+    basis : {"laplacian", "rows"}
+        What ``values`` are: the Laplacian (LSR18), or backward differences along rows
+        (:mod:`.rows`), integrated by a prefix sum per row.
     """
 
     points: np.ndarray
@@ -88,12 +94,14 @@ class SparsePSF:
     stats: dict = field(default_factory=dict)
     dense: np.ndarray | None = None
     dense_origin: tuple[int, int] = (0, 0)
+    basis: str = "laplacian"
 
     def reconstruct(self, resolution: int) -> np.ndarray:
         """The PSF as the runtime draws it, centred in an (R, R, C) float32 image.
 
         Spreadlets are splatted into a Laplacian canvas and integrated with
-        :func:`runtime_cl.integrate.poisson.poisson_integrate`; the fast track places ``dense``.
+        :func:`runtime_cl.integrate.poisson.poisson_integrate` (row differences: summed along
+        each row); the fast track places ``dense``.
 
         Parameters
         ----------
@@ -120,6 +128,8 @@ class SparsePSF:
                             f"{ext} px from the centre; use resolution >= {2 * ext + 4}")
         lap = np.zeros((resolution, resolution, chans), np.float64)
         np.add.at(lap, (pos[:, 1], pos[:, 0]), self.values.astype(np.float64))
+        if self.basis == "rows":
+            return np.cumsum(lap, axis=1).astype(np.float32)
         return poisson_integrate(lap)
 
 
@@ -147,7 +157,7 @@ def _move_bounds(sy, sx, box, resolution) -> tuple[int, int, int, int]:
             min(int(sx.max()) + 2, box.w - 2, resolution - 2 - box.x0))
 
 
-def _dense(f, n_points, n_dense, extra) -> SparsePSF:
+def _dense(f, n_points, n_dense, extra, basis: str = "laplacian") -> SparsePSF:
     mask = (f != 0).any(axis=2)
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     c = f.shape[0] // 2
@@ -157,7 +167,7 @@ def _dense(f, n_points, n_dense, extra) -> SparsePSF:
                  cost_lloyd=0.0, cost_final=0.0, ssim_target=1.0, l1_target=0.0, **extra)
     chans = f.shape[2]
     return SparsePSF(np.zeros((0, 2), np.int16), np.zeros((0, chans), np.float32), True, stats,
-                     crop, (int(cols[0]) - c, int(rows[0]) - c))
+                     crop, (int(cols[0]) - c, int(rows[0]) - c), basis)
 
 
 def _quantum(rays, channels: int) -> np.ndarray:
@@ -170,9 +180,25 @@ def _quantum(rays, channels: int) -> np.ndarray:
     return 1.0 / np.asarray(rays, dtype=np.float64)
 
 
+def _sparsify_rows(f_in: np.ndarray, density: float, quantum, n_dense: int, extra: dict) -> SparsePSF:
+    """Row-difference spreadlets (:mod:`.rows`), or the dense PSF when they are no sparser."""
+    fit = fit_rows(f_in, LAMBDA / density, quantum)
+    pts, vals = row_terms(fit)
+    if len(pts) >= n_dense:
+        return _dense(f_in, len(pts), n_dense, extra, "rows")
+    sparse = SparsePSF(pts, vals, False, basis="rows")
+    rec = sparse.reconstruct(f_in.shape[0])
+    ssim, l1 = similarity(f_in, rec, working_box(f_in, psf_laplacian(f_in)))
+    stats = dict(n_points=float(len(pts)), n_dense=float(n_dense), sparsity=len(pts) / n_dense,
+                 ssim=ssim, l1=l1, drawn=float(len(pts)), cost_lloyd=l1, cost_final=l1,
+                 ssim_target=ssim, l1_target=l1, **extra)
+    return SparsePSF(pts, vals, False, stats, basis="rows")
+
+
 def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
              dart_failures: int = 10_000, lloyd_iterations: int = 50, anneal_steps: int = 400,
-             anneal_fraction: float = 0.01, rays: int | Sequence[int] | None = None) -> SparsePSF:
+             anneal_fraction: float = 0.01, rays: int | Sequence[int] | None = None,
+             basis: str = "laplacian") -> SparsePSF:
     """Turn a dense PSF into spreadlets (LSR18 section 5.5) or keep it dense (section 6.4).
 
     Parameters
@@ -199,6 +225,10 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
         A sequence gives each channel's own count, for RGB tracers whose rays pick a channel and
         whose channels are normalised separately (the rays landing in each channel,
         ``TraceResult.counts.sum(axis=(0, 1))``). None (default): the PSF is exact.
+    basis : {"laplacian", "rows"}, default "laplacian"
+        LSR18's Laplacian spreadlets, or row differences (:mod:`lab.sparsify.rows`: a Potts fit of
+        each row; ``seed`` and the dart/Lloyd/anneal settings do not apply, ``density`` scales
+        its segment cost). ``stats`` has the same keys either way.
 
     Returns
     -------
@@ -216,11 +246,17 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
     f_in = check_psf(psf)
     check_params(density, seed, dart_failures, lloyd_iterations, anneal_steps, anneal_fraction,
                  rays)
+    if basis not in BASES:
+        raise UserError(f"sparsify: basis = {basis!r}; choose one of {list(BASES)}")
     rng = np.random.default_rng(seed)
     n_dense = dense_count(f_in)
     quantum = None if rays is None else _quantum(rays, f_in.shape[2])
     f, floor, coarse, reach = f_in, None, None, LEVEL_REACH
     extra = dict(rays=0.0, denoise_sigma=0.0)
+    if basis == "rows":
+        if quantum is not None:
+            extra["rays"] = float(1.0 / quantum.max())
+        return _sparsify_rows(f_in, density, quantum, n_dense, extra)
     if quantum is not None:
         dn = denoise(f_in, quantum)
         f, floor, reach = dn.psf, K_SIGMA * dn.lap_sd, dn.reach

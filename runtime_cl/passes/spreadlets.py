@@ -20,7 +20,7 @@ import numpy as np
 from runtime_cl.coords.maps import needs_motion, psf_coords
 from runtime_cl.errors import InputError
 from runtime_cl.layers.composite import PixelLayer, check_soft, render_layers
-from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
+from runtime_cl.integrate import get_integrator
 from runtime_cl.passes.registry import RuntimePass, integrating_passes, register_pass
 from runtime_cl.psf.far_field import FarField
 from runtime_cl.spreadlets.layers import SpreadletLayerSplatter
@@ -36,7 +36,8 @@ class SpreadletPass(RuntimePass):
 
     Options: ``tile``, ``run_max``, ``spreadlet_rotation`` and, for a pass that integrates a
     Laplacian canvas (``integrates``), ``integrator`` as for :class:`Renderer` (a name from
-    :func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``); ``far_field``: a
+    :func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``, and none for a database
+    of row differences); ``far_field``: a
     ``volume_far`` database whose halos are added to a ``volume`` database's render
     (:class:`runtime_cl.psf.far_field.FarField`); ``layered_input``: render the frame's
     ``layerN.*`` layers in the global depth layers instead of its flat image; ``soft_layers``:
@@ -52,10 +53,11 @@ class SpreadletPass(RuntimePass):
     far_field = True
 
     def configure(self, *, tile=None, run_max: int = RUN_MAX, spreadlet_rotation: str = DEFAULT_SPREADLET_ROTATION,
-                  far_field=None, integrator: str = DEFAULT_INTEGRATOR, layered_input: bool = False,
+                  far_field=None, integrator: str | None = None, layered_input: bool = False,
                   soft_layers: float = 0.0, hdr_ratio="default"):
-        get_integrator(integrator)   # an unknown name is an error for every pass
-        if integrator != DEFAULT_INTEGRATOR and not self.integrates:
+        if integrator is not None:
+            get_integrator(integrator)   # an unknown name is an error for every pass
+        if integrator is not None and not self.integrates:
             raise InputError(f"integrator = {integrator!r}: the {self.name!r} pass integrates no Laplacian; "
                              f"the integrator is an option of {integrating_passes()}")
         layered = self.layers > 1 or bool(layered_input)   # layers: integrate where each one lies

@@ -12,7 +12,8 @@ array               dtype, shape                meaning
 ``checksum``        uint8 (64,)                 hex sha256 over the header and every array
 ``C``               int64 (n+1,)                spreadlets of sample i are C[i]:C[i+1]
 ``P``               int16 (m, 2)                (dx, dy) offsets from the PSF centre, pixels
-``V``               float32 (m, channels)       Laplacian values of the spreadlets
+``V``               float32 (m, channels)       values of the spreadlets: Laplacian, or row
+                                                differences if params ``basis`` is ``"rows"``
 ``fast_track``      bool (n,)                   sample is splat dense (LSR18 section 6.4)
 ``dense_radius``    int32 (n,)                  r_i: the dense crop is (2 r_i + 1)^2 pixels
 ``dense_offsets``   int64 (n+1,)                rows of sample i in dense_values
@@ -22,6 +23,11 @@ array               dtype, shape                meaning
 
 n is the number of cells of the nested grid (one PSF sample per cell, in cell order). Files are
 written atomically (temporary file in the same directory, then ``os.replace``).
+
+``params["basis"]`` (absent: ``"laplacian"``) says what the spreadlets are: LSR18's Laplacian
+values, integrated by a Poisson solve, or backward differences along image rows (``"rows"``,
+``lab.sparsify.rows``), integrated by a prefix sum along each canvas row
+(:mod:`runtime_cl.integrate.rows`); row differences can be drawn as stored or half-turned only.
 """
 from __future__ import annotations
 
@@ -43,6 +49,7 @@ from runtime_cl.psf.npz_reader import read_npz
 MAGIC = "splatlab-spreadlet-db"
 FORMAT_VERSION = 1
 REQUIRED_STATS = ("sparsity", "ssim", "l1")
+BASES = ("laplacian", "rows")
 REBUILD = "rebuild it with `splatlab precompute SCENE`"
 # (name, dtype) of the arrays, in checksum order
 ARRAYS = (("C", np.int64), ("P", np.int16), ("V", np.float32), ("fast_track", np.bool_),
@@ -112,6 +119,9 @@ class SpreadletDatabase:
             raise InputError(f"database params of model {self.model}: not JSON-serialisable ({exc})")
         if self.channels not in (1, 3):
             raise InputError(f"database channels = {self.channels!r}: must be 1 or 3")
+        if self.basis not in BASES:
+            raise InputError(f"database params basis = {self.params.get('basis')!r}: must be one of "
+                             f"{list(BASES)}; {REBUILD}")
         if not (isinstance(self.psf_resolution, (int, np.integer)) and self.psf_resolution >= 1):
             raise InputError(f"database psf_resolution = {self.psf_resolution!r}: must be an integer >= 1")
         n, ch = self.grid.size, self.channels
@@ -145,6 +155,11 @@ class SpreadletDatabase:
     def n_samples(self) -> int:
         """Number of PSF samples (= cells of the grid)."""
         return self.grid.size
+
+    @property
+    def basis(self) -> str:
+        """``"laplacian"`` or ``"rows"``: what the spreadlet values are (module docstring)."""
+        return self.params.get("basis", "laplacian") if isinstance(self.params, dict) else "laplacian"
 
     @property
     def n_spreadlets(self) -> int:

@@ -2,7 +2,8 @@
 
 Each cell's dense PSF is a disc of the cell's CoC radius (:func:`runtime_cl.psf.disc.disc_psf`,
 supersampled pixels; radius 0 is a delta). Its spreadlets are the exact 5-point Laplacian of that
-crop (every non-zero pixel), so integrating them gives the dense PSF back exactly;
+crop (every non-zero pixel), or with ``basis="rows"`` its exact backward differences along rows,
+so integrating them gives the dense PSF back exactly;
 ``max_spreadlets`` keeps only the largest-magnitude ones instead (not exact: for throughput
 measurements at a chosen spreadlet count). Needs no light tracing, no lab.
 """
@@ -18,7 +19,7 @@ from runtime_cl.psf.grid import NestedGrid
 
 
 def disc_database(r_max: float, samples: int = 32, beta: float = 2.0, max_spreadlets: int | None = None,
-                  fast_track_below: float = 0.0, edge: float = 0.0) -> SpreadletDatabase:
+                  fast_track_below: float = 0.0, edge: float = 0.0, basis: str = "laplacian") -> SpreadletDatabase:
     """Build the synthetic disc database.
 
     Parameters
@@ -36,19 +37,26 @@ def disc_database(r_max: float, samples: int = 32, beta: float = 2.0, max_spread
     edge : float
         Width of the discs' soft rim in pixels (default 0: hard discs); see
         :func:`runtime_cl.psf.disc.disc_psf`.
+    basis : {"laplacian", "rows"}
+        What the spreadlets hold (:mod:`runtime_cl.psf.database`); default ``"laplacian"``.
     """
     if not (np.isfinite(r_max) and r_max > 0):
         raise InputError(f"r_max = {r_max!r}: must be a finite number of pixels > 0")
+    if basis not in ("laplacian", "rows"):
+        raise InputError(f"basis = {basis!r}: must be 'laplacian' or 'rows'")
     grid = NestedGrid.for_samples(samples, (beta,), ((0.0, float(r_max)),), ("coc_radius_px",))
     builder = DatabaseBuilder("simple_lens", {"synthetic": "disc", "r_max": float(r_max), "edge": float(edge),
-                                              "max_spreadlets": max_spreadlets}, grid, 1,
+                                              "max_spreadlets": max_spreadlets, "basis": basis}, grid, 1,
                               2 * int(np.ceil(r_max + edge / 2)) + 1)
     for cell in range(grid.size):
         # in 1-D, cell l is the grid interval [T(l), T(l+1)); its radius is taken at the middle
         radius = float(grid.from_grid([cell * (cell + 1) / 2.0 + (cell + 1) / 2.0])[0])
         psf = disc_psf(radius, edge=edge)
         r = psf.shape[0] // 2
-        lap = laplacian5(np.pad(psf, 1))
+        if basis == "rows":   # d(x) = psf(x) - psf(x - 1), one column past each side
+            lap = np.diff(np.pad(psf, 1), axis=1, prepend=0.0)
+        else:
+            lap = laplacian5(np.pad(psf, 1))
         ys, xs = np.nonzero(lap)
         if max_spreadlets is not None and len(ys) > max_spreadlets:
             keep = np.argsort(-np.abs(lap[ys, xs]), kind="stable")[:max_spreadlets]

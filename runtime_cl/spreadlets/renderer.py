@@ -51,10 +51,11 @@ class Renderer:
         spreadlets method splats every PSF (fast-tracked dense ones too) pre-turned at the
         nearest of a set of quantised angles (:mod:`runtime_cl.spreadlets.angle_bank`, built
         once per renderer); Splat and Filter still turn per pixel.
-    integrator : str
+    integrator : str, optional
         How the ``spreadlets`` method integrates its Laplacian canvas: a registered integrator
         (:func:`runtime_cl.integrate.integrator_names`; default ``"fft32"``, the float32 FFT;
-        ``"exact"``, the float64 one; ``"pyramid"``).
+        ``"exact"``, the float64 one; ``"pyramid"``). A database of row differences (basis
+        ``"rows"``) takes none: its canvas rows are summed as the tiles are merged.
     crop_integration : bool
         Integrate only the rectangle the splats reach when it is much smaller than the canvas
         (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.
@@ -66,9 +67,13 @@ class Renderer:
 
     def __init__(self, db: SpreadletDatabase, device: Device | None = None, tile=None,
                  run_max: int = RUN_MAX, spreadlet_rotation: str = DEFAULT_SPREADLET_ROTATION,
-                 integrator: str = DEFAULT_INTEGRATOR, crop_integration: bool = False,
+                 integrator: str | None = None, crop_integration: bool = False,
                  hdr_ratio: float | None = HDR_RATIO):
-        integrator_class = get_integrator(integrator)   # an unknown name fails before any upload
+        integrator_class = get_integrator(DEFAULT_INTEGRATOR if integrator is None else integrator)
+        if db.basis == "rows" and integrator is not None:
+            raise InputError(f"integrator = {integrator!r}: database {db.model!r} stores row differences "
+                             "(basis 'rows'), summed along rows as they are merged, not a Laplacian; "
+                             "give no integrator")
         if spreadlet_rotation not in SPREADLET_ROTATIONS:
             raise InputError(f"spreadlet_rotation = {spreadlet_rotation!r}: must be one of "
                              f"{list(SPREADLET_ROTATIONS)}")
@@ -78,7 +83,8 @@ class Renderer:
         self.tile = tile
         self.run_max = run_max
         self.spreadlet_rotation = spreadlet_rotation
-        self.integrator = integrator_class(self.device)
+        # None: a row-difference database needs no integrator (TileSplatter sums its rows)
+        self.integrator = None if db.basis == "rows" else integrator_class(self.device)
         self.crop_integration = bool(crop_integration)
         if hdr_ratio is not None and (isinstance(hdr_ratio, bool) or not (isinstance(hdr_ratio, (int, float))
                                                                     and hdr_ratio >= 1.0)):
@@ -265,8 +271,11 @@ class _Spreadlets:
     def image(r: Renderer, out, h: int, w: int) -> tuple:
         """The cropped image and the integrator's times."""
         p, lap = out.pad, out.canvas[0]
+        if r.integrator is None:   # row differences: the merge kernel summed them along the rows
+            image = lap[p:p + h, p:p + w].copy()
+            times = {"device_ms": 0.0, "transfer_ms": 0.0}
         # an all-zero Laplacian integrates to zero; skip the integration when nothing was splat
-        if out.spreadlets:
+        elif out.spreadlets:
             full, times = integrate_support(r.integrator, lap) if r.crop_integration else r.integrator(lap)
             image = full[p:p + h, p:p + w]
         else:

@@ -151,6 +151,11 @@ class TileSplatter:
         self.bank = None
         if self.rotate and not self.half_turns and not self.dense_all and spreadlet_rotation == "bank":
             self.bank = bank if bank is not None else AngleBank(ddb.db)
+        # row differences (database basis "rows"): merge_tiles sums them along each canvas row
+        self.row_sum = ddb.db.basis == "rows" and not self.dense_all
+        if self.row_sum and self.rotate and not self.half_turns:
+            raise InputError(f"database {ddb.db.model!r} stores row differences (basis 'rows'), which turn "
+                             "by 180 degrees only; rebuild it with basis = 'laplacian' to turn its PSFs by any angle")
         turns = self.rotate and self.bank is None   # the kernel turns PSFs per pixel (rotate.cl)
         self.pad = ddb.db.rotated_pad if self.rotate and not self.half_turns else ddb.db.pad
         if self.bank is not None:
@@ -158,7 +163,7 @@ class TileSplatter:
         options = ddb.base_options + [f"-DPAD={self.pad}", f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
                                       f"-DDENSE_ALL={int(self.dense_all)}", f"-DHAS_FAST={int(has_fast)}",
                                       f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}",
-                                      f"-DROTATE={int(turns)}", f"-DBANK={int(self.bank is not None)}",
+                                      f"-DROTATE={int(turns)}", f"-DBANK={int(self.bank is not None)}", f"-DROW_SUM={int(self.row_sum)}",
                                       f"-DSPREADLET_BILINEAR={int(spreadlet_rotation == 'bilinear')}"]
         rotate = ("spreadlets/rotate.cl",) if turns else ()
         self.turns = turns

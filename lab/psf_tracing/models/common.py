@@ -38,7 +38,7 @@ from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
 from runtime_cl.psf.grid import MAX_SAMPLES
 
-__all__ = ["ApertureKeys", "LensKeys", "check_number", "check_common", "whole_launches",
+__all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "check_number", "check_common", "whole_launches",
            "SYMMETRY_TAGS"]
 
 SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "optical_axis")
@@ -194,3 +194,23 @@ class LensKeys:
             self.lens
         except UserError as exc:
             raise UserError(f"canonical lens (lens_* keys): {exc}") from None
+
+
+@dataclass(frozen=True, kw_only=True)
+class BasisKeys:
+    """What the sparsifier stores, for models whose PSFs are drawn as stored or half-turned.
+
+    Parameters
+    ----------
+    basis : {"laplacian", "rows"}, default "laplacian"
+        LSR18's Laplacian spreadlets, or row differences (:mod:`lab.sparsify.rows`: about half
+        the terms on flat shapes, integrated by a prefix sum per row instead of a Poisson solve).
+    """
+
+    basis: str = "laplacian"
+
+    def check_basis(self) -> None:
+        from lab.sparsify.spreadlets import BASES
+
+        if self.basis not in BASES:
+            raise UserError(f"basis = {self.basis!r}: choose one of {list(BASES)}")

@@ -23,7 +23,7 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.models.base import PSFModel, register_model
-from lab.psf_tracing.models.common import (ApertureKeys, LensKeys, check_common, check_number,
+from lab.psf_tracing.models.common import (ApertureKeys, BasisKeys, LensKeys, check_common, check_number,
                                            whole_launches)
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import RayHits
@@ -41,7 +41,7 @@ def min_psf_resolution(max_coc_px: float) -> int:
 
 
 @dataclass(frozen=True)
-class SimpleLensConfig(LensKeys, ApertureKeys):
+class SimpleLensConfig(LensKeys, ApertureKeys, BasisKeys):
     """Settings of the SimpleLens model (a scene's ``[psf.simple_lens]`` table).
 
     Parameters
@@ -67,7 +67,8 @@ class SimpleLensConfig(LensKeys, ApertureKeys):
     seed : int, default 0
         Random seed (>= 0); same seed, same PSFs bitwise.
 
-    The ``aperture*`` keys (:class:`~lab.psf_tracing.models.common.ApertureKeys`) choose the
+    ``basis`` (:class:`~lab.psf_tracing.models.common.BasisKeys`) picks Laplacian or row-difference
+    spreadlets. The ``aperture*`` keys (:class:`~lab.psf_tracing.models.common.ApertureKeys`) choose the
     aperture shape, e.g. ``aperture = "polygon"``, ``aperture_blades = 6``; the ``lens_*`` keys
     (:class:`~lab.psf_tracing.models.common.LensKeys`) the canonical thin lens, which the PSFs do
     not depend on beyond rounding.
@@ -95,6 +96,7 @@ class SimpleLensConfig(LensKeys, ApertureKeys):
                 f"use psf_resolution >= {need} (or a smaller max_coc_px)")
         self.check_aperture()
         self.check_lens()
+        self.check_basis()
 
 
 @register_model("simple_lens")

@@ -28,7 +28,7 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.models.base import PSFModel, register_model
-from lab.psf_tracing.models.common import (ApertureKeys, LensKeys, check_common, check_number,
+from lab.psf_tracing.models.common import (ApertureKeys, BasisKeys, LensKeys, check_common, check_number,
                                            whole_launches)
 from lab.psf_tracing.models.simple_lens import min_psf_resolution
 from lab.psf_tracing.space import NestedGrid
@@ -38,7 +38,7 @@ __all__ = ["Stylized", "StylizedConfig"]
 
 
 @dataclass(frozen=True)
-class StylizedConfig(LensKeys, ApertureKeys):
+class StylizedConfig(LensKeys, ApertureKeys, BasisKeys):
     """Settings of the Stylized model (a scene's ``[psf.stylized]`` table).
 
     Parameters
@@ -69,7 +69,8 @@ class StylizedConfig(LensKeys, ApertureKeys):
     seed : int, default 0
         Random seed (>= 0).
 
-    The ``lens_*`` keys (:class:`~lab.psf_tracing.models.common.LensKeys`) set the canonical lens.
+    ``basis`` (:class:`~lab.psf_tracing.models.common.BasisKeys`) picks Laplacian or row-difference
+    spreadlets. The ``lens_*`` keys (:class:`~lab.psf_tracing.models.common.LensKeys`) set the canonical lens.
     """
 
     max_coc_px: float
@@ -104,6 +105,7 @@ class StylizedConfig(LensKeys, ApertureKeys):
                 "(or a smaller max_coc_px / channel_scale)")
         self.check_aperture()
         self.check_lens()
+        self.check_basis()
 
 
 @register_model("stylized")

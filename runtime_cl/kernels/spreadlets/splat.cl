@@ -40,6 +40,10 @@
 //                angle and dense_sum buffers are not read, the code is the unrotated one.
 //   SPREADLET_BILINEAR  (with ROTATE) 1: turned spreadlets are shared bilinearly among four
 //                pixels, 0: moved to the nearest pixel (splat_spreadlets_rotated)
+//   ROW_SUM      1: group 0 holds row differences (a database of basis "rows"), not a Laplacian:
+//                merge_tiles writes each canvas row's prefix sum (in double), which is the image.
+//                With ROTATE only half turns occur (the Renderer checks): the half-turned PSF's
+//                difference at x is minus the stored one's at 1 - x.
 //   BANK         1 (with ROTATE 0): the database buffers hold an angle bank
 //                (runtime_cl/spreadlets/angle_bank.py): cell i turned by 2 pi k / bank_k[i] is
 //                entry bank_base[i] + k; a pixel takes the entry of the angle nearest its own and
@@ -57,6 +61,12 @@
 #endif
 #ifndef BANK
 #define BANK 0
+#endif
+#ifndef ROW_SUM
+#define ROW_SUM 0
+#endif
+#if ROW_SUM
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
 
 #if BANK
@@ -163,11 +173,22 @@ inline void splat_spreadlets_rotated(__global pix_t *lap, const int buf_w, __glo
         return;
     }
 #endif
+#if ROW_SUM
+    // row differences turn by half turns only: minus the stored term, one pixel to the right
+    const int flip = cs.x < 0.0f;
+    const pix_t sign = flip ? (pix_t)(-1.0f) : (pix_t)1.0f;
+    for (long j = j0; j < j1; ++j) {
+        const short2 p = P[j];
+        const float2 f = rotate_xy(cs, (float)p.x, (float)p.y);
+        splat_run(lap + (long)round_px(f.y) * buf_w + round_px(f.x) + flip, sign * DB_VALUE(V, j), run_col, n);
+    }
+#else
     for (long j = j0; j < j1; ++j) {
         const short2 p = P[j];
         const float2 f = rotate_xy(cs, (float)p.x, (float)p.y);
         splat_run(lap + (long)round_px(f.y) * buf_w + round_px(f.x), DB_VALUE(V, j), run_col, n);
     }
+#endif
 }
 
 // The dense PSF of radius r turned by cs (spreadlets/rotate.cl: inverse-mapped, scaled to keep its energy)
@@ -354,6 +375,13 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
     const int ty_lo = first_tile(cy, tile_h, buf_h), ty_hi = min(cy / tile_h, tiles_y - 1);
     for (int g = 0; g < GROUPS; ++g) {
         __global float *dst = canvas + ((long)g * canvas_h + cy) * canvas_w * OC;
+#if ROW_SUM
+#if OC == 1
+        double run = 0.0;
+#else
+        double4 run = (double4)0.0;
+#endif
+#endif
         for (int x = 0; x < canvas_w; ++x) {
             const int tx_lo = first_tile(x, tile_w, buf_w), tx_hi = min(x / tile_w, tiles_x - 1);
             pix_t acc = (pix_t)0.0f;
@@ -363,6 +391,17 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
                     acc += tiles[((t * GROUPS + g) * buf_h + (cy - ty * tile_h)) * buf_w + (x - tx * tile_w)];
                 }
             }
+#if ROW_SUM
+            if (g == 0) {   // row differences: the image is their running sum
+#if OC == 1
+                run += (double)acc;
+                acc = (float)run;
+#else
+                run += convert_double4(acc);
+                acc = convert_float4(run);
+#endif
+            }
+#endif
 #if OC == 1
             dst[x] = acc;
 #elif OC == 3

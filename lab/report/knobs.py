@@ -49,6 +49,9 @@ class Knob:
         ``psf`` knobs: further settings scaled by the same factor (value / base) when present.
     why_not : str
         The reason a pass that ``applies`` refuses is skipped (``{pass}``, ``{key}`` filled in).
+    refuses : callable, optional
+        ``refuses(table) -> str | None``: why the knob does not apply to a database of the scene's
+        own settings for the model (its ``[psf.<model>]`` table), if so.
     """
 
     name: str
@@ -59,6 +62,7 @@ class Knob:
     applies: Callable | None = None
     scale_with: tuple = ()
     why_not: str = "the {pass!r} pass takes no option {key!r}"
+    refuses: Callable | None = None
 
     def skip_reason(self, pass_cls, model_config=None) -> str | None:
         """Why this knob does not apply to a method of pass ``pass_cls`` rendering a database of
@@ -88,6 +92,10 @@ def pass_default(cls, option: str):
     """The default of a pass option (the value the pass uses when the plan gives none)."""
     if option == "layers":
         return 1
+    if option == "integrator":   # None: the database's own (fft32 for a Laplacian, none for rows)
+        from runtime_cl.integrate import DEFAULT_INTEGRATOR
+
+        return DEFAULT_INTEGRATOR
     p = inspect.signature(cls.configure).parameters.get(option)
     return None if p is None or p.default is inspect.Parameter.empty else p.default
 
@@ -142,7 +150,13 @@ register_knob(Knob("traced_layers", "pass", "max_layers", "input layers traced",
 register_knob(Knob("lens_rays", "pass", "rays", "lens rays per pixel",
                    lambda base: sorted({max(1, int(base) // 8), max(1, int(base) // 2), int(base), 2 * int(base)})))
 register_knob(Knob("integrator", "pass", "integrator", "Poisson integrator", _integrators,
-                   applies=lambda cls: bool(getattr(cls, "integrates", False))))
+                   applies=lambda cls: bool(getattr(cls, "integrates", False)),
+                   refuses=lambda table: "its database stores row differences (basis 'rows'), summed along rows "
+                   "as they are merged: no Poisson solve" if table.get("basis") == "rows" else None))
+# What a spreadlet is (lab/sparsify/rows.py): LSR18's Laplacian or row differences, same PSFs.
+register_knob(Knob("basis", "psf", "basis", "spreadlet basis", lambda base: ["laplacian", "rows"],
+                   applies=lambda cls: bool(getattr(cls, "integrates", False)),
+                   why_not="the {pass!r} pass draws the dense PSFs, not spreadlets: their {key!r} is not used"))
 # The path tracer itself as a method: fewer samples, an independent seed, scored against the reference.
 register_knob(Knob("reference_spp", "reference", "reference_spp", "reference samples per pixel",
                    lambda base: [v for v in (base // 8, base // 4, base // 2, base) if v >= 1]))

@@ -71,6 +71,8 @@ def sweep_tasks(scene, plan, image, knobs) -> tuple[list[SweepTask], list[dict]]
                 if knob.kind == "reference":
                     continue
                 reason = knob.skip_reason(cls, config)
+                if reason is None and knob.refuses is not None and model is not None:
+                    reason = knob.refuses(scene.psf.get(model, {}))
                 if reason is not None:
                     skipped.append({"method": method, "knob": knob.name, "reason": reason})
                     continue
@@ -110,7 +112,7 @@ def _database(task, scene, image, executor):
 
     table = model_table(scene, task.model, image)
     table[task.knob.key] = task.value
-    factor = task.value / task.base if task.base else 1.0
+    factor = task.value / task.base if task.extra and task.base else 1.0
     for key, value in task.extra.items():
         table[key] = max(1, int(round(value * factor))) if isinstance(value, int) else value * factor
     model = load_model(task.model, table, f"{scene.source} [psf.{task.model}] {task.knob.key} = {task.value}")

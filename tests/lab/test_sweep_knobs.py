@@ -1,6 +1,8 @@
 """The sweep's knob registry: which knob applies to which runtime pass, and why not."""
+import numpy as np
 import pytest
 
+from lab.exr_io import LabelledImage
 from lab.paths import SCENES
 from lab.pipeline import load_scene_and_plan
 from lab.psf_tracing.models.base import get_model
@@ -57,3 +59,22 @@ def test_unknown_knob_names_the_known_ones():
         select_knobs(["nope"])
     with pytest.raises(ValueError, match="kind"):
         register_knob(Knob("x", "shader", "x", "x", lambda b: [b]))
+
+
+def test_the_basis_knob_sweeps_both_and_a_row_database_takes_no_integrator(tmp_path):
+    """``basis`` sweeps Laplacian against row-difference spreadlets (the spreadlets pass only); a
+    scene whose database stores rows skips the integrator knob, saying why."""
+    scene_file = tmp_path / "rows.toml"
+    scene_file.write_text((SCENES / "tiny.toml").read_text().replace("[psf.simple_lens]\n",
+                                                                     '[psf.simple_lens]\nbasis = "rows"\n'))
+    scene, plan = load_scene_and_plan(scene_file)
+    h, w = scene.height, scene.width
+    image = LabelledImage(rgb=np.ones((h, w, 3), np.float32), alpha=np.ones((h, w), np.float32),
+                          depth=np.linspace(0.5, 4.0, h * w, dtype=np.float32).reshape(h, w),
+                          camera=scene.camera.camera_json())   # the plan derives the CoC range from it
+    tasks, skipped = sweep_tasks(scene, plan, image, select_knobs(["integrator", "basis"]))
+    assert {(t.method, t.value) for t in tasks} == {("spreadlets", "laplacian"), ("spreadlets", "rows")}
+    assert all(t.base == "rows" for t in tasks)
+    reasons = {(s["method"], s["knob"]): s["reason"] for s in skipped}
+    assert "row differences" in reasons[("spreadlets", "integrator")]
+    assert "dense PSFs" in reasons[("splat", "basis")]

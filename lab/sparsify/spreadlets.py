@@ -183,11 +183,16 @@ def _quantum(rays, channels: int) -> np.ndarray:
 def _sparsify_rows(f_in: np.ndarray, density: float, quantum, n_dense: int, extra: dict) -> SparsePSF:
     """Row-difference spreadlets (:mod:`.rows`), or the dense PSF when they are no sparser.
 
-    A fit whose relative L1 error exceeds :data:`~.rows.L1_MAX` is redone with a quarter of the
+    A fit whose relative L1 error exceeds :data:`~.rows.L1_MAX` (plus the L1 that ray noise alone
+    gives a histogram PSF) is redone with a quarter of the
     segment cost (at most :data:`~.rows.REFITS` times): a PSF a few pixels wide has ramps as wide
     as its plateau, which the level-scaled cost would merge."""
     box = working_box(f_in, psf_laplacian(f_in))
     lam = LAMBDA / density
+    bound = L1_MAX   # plus the ray noise's own expected L1 (E|n| = sqrt(2 / pi) sigma per pixel)
+    if quantum is not None:
+        f64 = np.asarray(f_in, np.float64)
+        bound += float(np.sqrt(2.0 / np.pi * f64 * quantum).sum() / f64.sum())
     for _ in range(REFITS + 1):
         pts, vals = row_terms(fit_rows(f_in, lam, quantum))
         if len(pts) >= n_dense:
@@ -195,7 +200,7 @@ def _sparsify_rows(f_in: np.ndarray, density: float, quantum, n_dense: int, extr
         sparse = SparsePSF(pts, vals, False, basis="rows")
         rec = sparse.reconstruct(f_in.shape[0])
         ssim, l1 = similarity(f_in, rec, box)
-        if l1 <= L1_MAX:
+        if l1 <= bound:
             break
         lam /= 4.0
     stats = dict(n_points=float(len(pts)), n_dense=float(n_dense), sparsity=len(pts) / n_dense,

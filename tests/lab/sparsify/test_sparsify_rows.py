@@ -90,6 +90,10 @@ def test_small_psfs_are_sparse_or_dense_whichever_is_smaller():
     small = prefiltered_disc_psf(5.0, 5.5, 31)[..., None]
     sp = sparsify(small, basis="rows")
     assert not sp.fast_track and sp.stats["sparsity"] < 0.6 and sp.stats["ssim"] > 0.99
+    # a PSF a pixel or two wide is mostly ramp: refitted until within 5 % L1, or dense
+    for lo, hi in ((0.9, 1.1), (1.2, 1.6), (1.6, 2.0)):
+        sp = sparsify(prefiltered_disc_psf(lo, hi, 31)[..., None], basis="rows")
+        assert sp.fast_track or sp.stats["l1"] <= 0.05, (lo, sp.stats)
 
 
 def test_an_unknown_basis_is_refused():

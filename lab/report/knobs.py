@@ -51,7 +51,7 @@ class Knob:
         The reason a pass that ``applies`` refuses is skipped (``{pass}``, ``{key}`` filled in).
     refuses : callable, optional
         ``refuses(table) -> str | None``: why the knob does not apply to a database of the scene's
-        own settings for the model (its ``[psf.<model>]`` table), if so.
+        settings for the model (its ``[psf.<model>]`` table over the model's defaults), if so.
     """
 
     name: str

@@ -14,6 +14,8 @@ each render cached with its seconds under the scene's render folder.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import json
 import time
 from dataclasses import dataclass, field, replace
@@ -72,7 +74,9 @@ def sweep_tasks(scene, plan, image, knobs) -> tuple[list[SweepTask], list[dict]]
                     continue
                 reason = knob.skip_reason(cls, config)
                 if reason is None and knob.refuses is not None and model is not None:
-                    reason = knob.refuses(scene.psf.get(model, {}))
+                    defaults = {f.name: f.default for f in dataclasses.fields(config)
+                                if f.default is not dataclasses.MISSING}
+                    reason = knob.refuses({**defaults, **scene.psf.get(model, {})})
                 if reason is not None:
                     skipped.append({"method": method, "knob": knob.name, "reason": reason})
                     continue

@@ -44,10 +44,11 @@ def test_values_pass_through_the_run_and_bracket_it():
 def test_sweep_tasks_of_tiny_skip_with_reasons_and_grow_by_one_entry(monkeypatch):
     scene, plan = load_scene_and_plan(SCENES / "tiny.toml")   # spreadlets, splat, filter; a thin-lens reference
     tasks, skipped = sweep_tasks(scene, plan, None, select_knobs(["integrator", "lens_rays"]))
-    assert {(t.method, t.value) for t in tasks} == {("spreadlets", n) for n in ("exact", "fft32", "pyramid")}
+    assert tasks == []   # tiny's database stores row differences (the default basis): no integrator
     reasons = {(s["method"], s["knob"]): s["reason"] for s in skipped}
     assert set(reasons) == {("spreadlets", "lens_rays"), ("splat", "lens_rays"), ("filter", "lens_rays"),
-                            ("splat", "integrator"), ("filter", "integrator")}
+                            ("splat", "integrator"), ("filter", "integrator"), ("spreadlets", "integrator")}
+    assert "row differences" in reasons[("spreadlets", "integrator")]
     # A new knob is one registry entry: the spreadlet passes' run length, swept with no other change.
     monkeypatch.setitem(KNOBS, "run_max", Knob("run_max", "pass", "run_max", "spreadlet run", lambda b: [b // 2, b]))
     tasks, _ = sweep_tasks(scene, plan, None, select_knobs(["run_max"]))
@@ -61,20 +62,22 @@ def test_unknown_knob_names_the_known_ones():
         register_knob(Knob("x", "shader", "x", "x", lambda b: [b]))
 
 
-def test_the_basis_knob_sweeps_both_and_a_row_database_takes_no_integrator(tmp_path):
-    """``basis`` sweeps Laplacian against row-difference spreadlets (the spreadlets pass only); a
-    scene whose database stores rows skips the integrator knob, saying why."""
-    scene_file = tmp_path / "rows.toml"
+def test_a_laplacian_database_sweeps_the_integrators_and_both_bases(tmp_path):
+    """With ``basis = "laplacian"`` the spreadlets pass integrates a Laplacian: the integrator knob
+    sweeps every registered integrator from the default, and ``basis`` sweeps both (the
+    spreadlets pass only: Splat and Filter draw the dense PSFs)."""
+    scene_file = tmp_path / "laplacian.toml"
     scene_file.write_text((SCENES / "tiny.toml").read_text().replace("[psf.simple_lens]\n",
-                                                                     '[psf.simple_lens]\nbasis = "rows"\n'))
+                                                                     '[psf.simple_lens]\nbasis = "laplacian"\n'))
     scene, plan = load_scene_and_plan(scene_file)
     h, w = scene.height, scene.width
     image = LabelledImage(rgb=np.ones((h, w, 3), np.float32), alpha=np.ones((h, w), np.float32),
                           depth=np.linspace(0.5, 4.0, h * w, dtype=np.float32).reshape(h, w),
                           camera=scene.camera.camera_json())   # the plan derives the CoC range from it
     tasks, skipped = sweep_tasks(scene, plan, image, select_knobs(["integrator", "basis"]))
-    assert {(t.method, t.value) for t in tasks} == {("spreadlets", "laplacian"), ("spreadlets", "rows")}
-    assert all(t.base == "rows" for t in tasks)
+    assert {(t.method, t.knob.name, t.value, t.base) for t in tasks} == {
+        ("spreadlets", "integrator", n, "fft32") for n in ("exact", "fft32", "pyramid")} | {
+        ("spreadlets", "basis", b, "laplacian") for b in ("laplacian", "rows")}
     reasons = {(s["method"], s["knob"]): s["reason"] for s in skipped}
-    assert "row differences" in reasons[("spreadlets", "integrator")]
+    assert ("spreadlets", "integrator") not in reasons
     assert "dense PSFs" in reasons[("splat", "basis")]

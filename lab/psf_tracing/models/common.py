@@ -202,12 +202,14 @@ class BasisKeys:
 
     Parameters
     ----------
-    basis : {"laplacian", "rows"}, default "laplacian"
-        LSR18's Laplacian spreadlets, or row differences (:mod:`lab.sparsify.rows`: about half
-        the terms on flat shapes, integrated by a prefix sum per row instead of a Poisson solve).
+    basis : {"rows", "laplacian"}, default "rows"
+        Row differences (:mod:`lab.sparsify.rows`: half the terms of LSR18's Laplacian
+        spreadlets or fewer at a higher SSIM, no dense fast track for PSFs 3 px wide and more,
+        summed along rows as they are merged instead of a Poisson solve), or LSR18's Laplacian
+        spreadlets.
     """
 
-    basis: str = "laplacian"
+    basis: str = "rows"
 
     def check_basis(self) -> None:
         from lab.sparsify.spreadlets import BASES

@@ -1,8 +1,8 @@
 """`splatlab report --sweep` on the tiny scene, end to end, and its page in headless Chromium.
 
-The sweep turns the integrator (spreadlets only), the lens rays (no pass of this plan traces
-any: skipped with the reason) and the reference's samples (the path tracer against the
-reference). The page is then opened in Debian's Chromium over the DevTools Protocol: every image
+The sweep turns the spreadlet basis (spreadlets only; the integrator, which a database of row
+differences does not take, is skipped with the reason), the lens rays (no pass of this plan
+traces any: skipped too) and the reference's samples (the path tracer against the reference). The page is then opened in Debian's Chromium over the DevTools Protocol: every image
 must load, the console must stay clean, the tables must sort, and a screenshot is saved.
 """
 import json
@@ -24,7 +24,7 @@ def sweep_report(e2e_cache, tmp_path_factory):
 
     out = tmp_path_factory.mktemp("sweep")
     report = run_report(SCENES / "tiny.toml", out, progress=False, noise=True,
-                        sweep=select_knobs(["integrator", "lens_rays", "reference_spp"]))
+                        sweep=select_knobs(["basis", "integrator", "lens_rays", "reference_spp"]))
     yield report, out
     mp.undo()
 
@@ -44,18 +44,15 @@ def test_more_reference_samples_agree_better_with_the_reference(sweep_report):
     assert spp[-1]["base"] and all(p["time_ms"] > 0 for p in spp)
 
 
-def test_integrators_sweep_the_spreadlets_and_the_base_is_the_report(sweep_report):
+def test_bases_sweep_the_spreadlets_and_the_base_is_the_report(sweep_report):
     report, _ = sweep_report
-    runs = points(report, "spreadlets", "integrator")
-    assert [p["value"] for p in runs] == ["exact", "fft32", "pyramid"]
-    from runtime_cl.integrate import DEFAULT_INTEGRATOR
-
-    exact, = [p for p in runs if p["value"] == "exact"]
+    runs = points(report, "spreadlets", "basis")
+    assert [p["value"] for p in runs] == ["laplacian", "rows"]
     base, = [p for p in runs if p["base"]]
-    assert base["value"] == DEFAULT_INTEGRATOR
+    assert base["value"] == "rows"
     assert abs(base["ssim"] - report["methods"]["spreadlets"]["ssim"]) < 1e-9   # the report's own render
-    # The float32 FFT and the convolution pyramid approximate the exact integration: close, not better by much.
-    assert all(abs(p["ssim"] - exact["ssim"]) < 0.01 for p in runs)
+    # two representations of the same traced PSFs: close, neither better by much
+    assert abs(runs[0]["ssim"] - runs[1]["ssim"]) < 0.01
     assert all(p["noise_corrected_psnr"] is not None for p in runs)
 
 
@@ -64,6 +61,8 @@ def test_inapplicable_knobs_are_listed_with_the_reason(sweep_report):
     skipped = {(s["method"], s["knob"]): s["reason"] for s in report["sweep"]["skipped"]}
     assert skipped[("spreadlets", "lens_rays")] == "the 'spreadlets' pass takes no option 'rays'"
     assert ("splat", "integrator") in skipped and ("filter", "lens_rays") in skipped
+    assert "row differences" in skipped[("spreadlets", "integrator")]
+    assert "dense PSFs" in skipped[("splat", "basis")]
     saved = json.loads((out / "report.json").read_text())
     assert "_images" not in saved["sweep"] and len(saved["sweep"]["points"]) == len(report["sweep"]["points"])
     assert any(p["on_front"]["ssim"] for p in saved["sweep"]["points"])

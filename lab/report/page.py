@@ -190,7 +190,8 @@ def _images_section(report: dict) -> str:
 
 DB_ROWS = (("model", "model"), ("samples", "PSF samples"), ("psf_resolution", "PSF edge [px]"),
            ("spreadlets", "spreadlets"), ("mean_spreadlets_per_sample", "spreadlets per sample"),
-           ("fast_track", "fast-track (dense) samples"), ("mean_sparsity", "mean sparsity"),
+           ("basis", "spreadlet basis"), ("fast_track", "fast-track (dense) samples"),
+           ("mean_sparsity", "mean sparsity"), ("sparse_only_sparsity", "mean sparsity of the sparse samples"),
            ("mean_ssim", "mean SSIM of the stored PSFs"), ("mean_l1", "mean L1"),
            ("file_bytes", "file size [bytes]"), ("reused", "reused from the cache"),
            ("build_seconds", "build [s]"), ("rays", "rays traced"), ("trace_Mrays_per_s", "tracing [M rays/s]"),

@@ -1,4 +1,5 @@
-"""A check figure for one sparsified PSF: PSF, Laplacian, spreadlets, reconstruction, error."""
+"""A check figure for one sparsified PSF: PSF, Laplacian (or row differences), spreadlets,
+reconstruction, error."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -39,6 +40,9 @@ def save_check_figure(psf: np.ndarray, sparse: SparsePSF, path: str | Path,
     lap = psf_laplacian(psf)
     box = working_box(psf, lap)
     rec = sparse.reconstruct(res)
+    rows = sparse.basis == "rows"
+    if rows:   # what the row spreadlets fit: the PSF's backward differences along x
+        lap = np.diff(np.asarray(psf, np.float64), axis=1, prepend=0.0)
     f, l, r = (box.crop(np.asarray(a, np.float64)).mean(axis=2) for a in (psf, lap, rec))
     c = res // 2
     vmax = max(f.max(), 1e-30)
@@ -47,13 +51,13 @@ def save_check_figure(psf: np.ndarray, sparse: SparsePSF, path: str | Path,
     ax[0].imshow(f, cmap="gray", vmin=0, vmax=vmax)
     ax[0].set_title("dense PSF")
     ax[1].imshow(l, cmap="RdBu_r", vmin=-lmax, vmax=lmax)
-    ax[1].set_title("Laplacian")
+    ax[1].set_title("row differences" if rows else "Laplacian")
     ax[2].imshow(l, cmap="RdBu_r", vmin=-lmax, vmax=lmax, alpha=0.35)
     if len(sparse.points):
         v = sparse.values.astype(np.float64).mean(axis=1)
         ax[2].scatter(sparse.points[:, 0] + c - box.x0, sparse.points[:, 1] + c - box.y0,
                       c=np.sign(v), cmap="bwr", s=6, vmin=-1, vmax=1)
-    ax[2].set_title(f"spreadlets ({len(sparse.points)})")
+    ax[2].set_title(f"{'row ' if rows else ''}spreadlets ({len(sparse.points)})")
     ax[3].imshow(r, cmap="gray", vmin=0, vmax=vmax)
     ax[3].set_title("reconstruction" + (" (fast track)" if sparse.fast_track else ""))
     err = ax[4].imshow(r - f, cmap="RdBu_r", vmin=-0.25 * vmax, vmax=0.25 * vmax)

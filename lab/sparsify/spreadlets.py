@@ -3,6 +3,7 @@
 Steps: Laplacian (:mod:`.laplacian`), dart throwing (:mod:`.dart`), Lloyd (:mod:`.lloyd`), Voronoi
 collapse (:mod:`.voronoi`), simulated annealing (:mod:`.anneal`), merge (:mod:`.merge`), then the
 fast-track decision of LSR18 section 6.4 and the statistics of section 7.3 (:mod:`.stats`).
+``basis="rows"`` stores row differences instead (:mod:`.rows`), fitted row by row.
 
 The sparsity knob: each dart-throwing disk carries the importance mass ``MASS / density``
 (importance = |Laplacian| in units of the PSF's intensity level, :mod:`.laplacian`), so the point
@@ -38,6 +39,7 @@ from scipy.spatial import cKDTree
 
 from lab.errors import UserError
 from runtime_cl.integrate.poisson import poisson_integrate
+from runtime_cl.psf.database import BASES   # what spreadlet values are: Laplacian or row differences
 
 from .anneal import anneal
 from .cost import BoxCost
@@ -56,8 +58,6 @@ __all__ = ["sparsify", "SparsePSF", "MASS", "BASES"]
 
 # Importance mass per dart-throwing disk at density 1 (see the module docstring).
 MASS = 0.25
-# What spreadlet values are: LSR18's Laplacian, or row differences (.rows)
-BASES = ("laplacian", "rows")
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,9 +184,9 @@ def _sparsify_rows(f_in: np.ndarray, density: float, quantum, n_dense: int, extr
     """Row-difference spreadlets (:mod:`.rows`), or the dense PSF when they are no sparser.
 
     A fit whose relative L1 error exceeds :data:`~.rows.L1_MAX` (plus the L1 that ray noise alone
-    gives a histogram PSF) is redone with a quarter of the
-    segment cost (at most :data:`~.rows.REFITS` times): a PSF a few pixels wide has ramps as wide
-    as its plateau, which the level-scaled cost would merge."""
+    gives a histogram PSF) is redone with a quarter of the segment cost, at most
+    :data:`~.rows.REFITS` times: a PSF a few pixels wide has ramps as wide as its plateau, which
+    the level-scaled cost would merge."""
     box = working_box(f_in, psf_laplacian(f_in))
     lam = LAMBDA / density
     bound = L1_MAX   # plus the ray noise's own expected L1 (E|n| = sqrt(2 / pi) sigma per pixel)

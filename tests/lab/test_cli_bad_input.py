@@ -239,10 +239,18 @@ def test_precompute_out_checked_before_any_work(work, capfd):
     (["psf_resolution=1e10"], ["psf_resolution = 10000000000.0", "integer"]),
     (["samples=100000000000000"], ["samples = 100000000000000", "at most 65536"]),
     (["rays_per_psf=1" + "0" * 400], ["rays_per_psf", "at most"]),
+    (["basis=haar"], ["basis = 'haar'", "['laplacian', 'rows']"]),
 ])
 def test_precompute_sizes_are_bounded(work, capfd, sets, needles):
     argv = ["precompute", "simple_lens", "--set", "max_coc_px=6"] + [a for s in sets for a in ("--set", s)]
     fails_cleanly(argv, capfd, work, *needles)
+
+
+def test_a_model_whose_psfs_turn_takes_no_row_basis(work, capfd):
+    """combined turns its PSFs by the motion angle: row differences cannot turn, so the model has
+    no ``basis`` key and the error lists the keys it has."""
+    fails_cleanly(["precompute", "combined", "--set", "max_coc_px=6", "--set", "max_motion_px=4",
+                   "--set", "basis=rows"], capfd, work, "unknown key(s) ['basis']", "max_motion_px")
 
 
 def test_reference_and_report_check_their_folder_first(work, capfd):

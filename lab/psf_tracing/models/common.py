@@ -36,6 +36,7 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture, get_aperture, make_aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
+from runtime_cl.psf.database import BASES
 from runtime_cl.psf.grid import MAX_SAMPLES
 
 __all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "check_number", "check_common", "whole_launches",
@@ -212,7 +213,5 @@ class BasisKeys:
     basis: str = "rows"
 
     def check_basis(self) -> None:
-        from lab.sparsify.spreadlets import BASES
-
         if self.basis not in BASES:
             raise UserError(f"basis = {self.basis!r}: choose one of {list(BASES)}")

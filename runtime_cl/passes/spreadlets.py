@@ -141,7 +141,8 @@ class SpreadletPass(RuntimePass):
 
 @register_pass("spreadlets")
 class SpreadletsPass(SpreadletPass):
-    summary = "LSR18 Laplacian spreadlets, Poisson integration (--integrator; default float32 FFT)"
+    summary = ("spreadlets: row differences summed along rows, or LSR18 Laplacian ones by Poisson integration "
+               "(--integrator; default float32 FFT)")
     method = "spreadlets"
     integrates = True
 

@@ -43,6 +43,7 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
     from lab.psf_tracing.models import load_model
     from lab.report.atlas import write_atlas
     from lab.report.table1 import table1_row
+    from lab.psf_tracing.models.common import basis_of
     from lab.sparsify.spreadlets import sparsify
 
     try:
@@ -55,7 +56,7 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
         traced = model.trace_checked(cell)
         t = time.perf_counter()
         sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=landed_rays(traced),
-                      basis=getattr(model.config, "basis", "laplacian"))
+                      basis=basis_of(model.config))
         entry["sparsify_largest"] = {"cell": cell, "rays": traced.n_rays,
                                      "seconds": time.perf_counter() - t, **sp.stats}
         return entry

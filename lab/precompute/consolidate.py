@@ -22,8 +22,10 @@ __all__ = ["database_params", "consolidate"]
 
 def database_params(model, digest: str) -> dict:
     """The ``params`` the database header stores for ``model`` built under hash ``digest``."""
+    from lab.psf_tracing.models.common import basis_of
+
     return {"config": to_table(model.config), "hash": digest, "symmetries": list(model.symmetries),
-            "fingerprint": model.fingerprint(), "basis": getattr(model.config, "basis", "laplacian")}
+            "fingerprint": model.fingerprint(), "basis": basis_of(model.config)}
 
 
 def consolidate(model, digest: str, folder: Path, out: Path) -> None:

@@ -129,23 +129,16 @@ def row_terms(fit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     dx), and ``values`` (n, C) float32. The last term of each row is minus the float32 sum of the
     others, so a float32 prefix sum in term order returns to exactly 0 after the row's shape.
     """
-    r = fit.shape[0]
-    c = r // 2
-    f32 = fit.astype(np.float32)
-    padded = np.zeros((r, r + 1, fit.shape[2]), np.float32)
-    padded[:, :r] = f32
-    diff = np.diff(np.concatenate([np.zeros((r, 1, fit.shape[2]), np.float32), padded], axis=1), axis=1)
+    c = fit.shape[0] // 2
+    diff = np.diff(fit.astype(np.float32), axis=1, prepend=0.0, append=0.0)   # (R, R + 1, C)
     ys, xs = np.nonzero((diff != 0).any(axis=2))
-    values = diff[ys, xs].astype(np.float32)
-    # close each row exactly in float32: the last term cancels the running sum of the others
-    last = np.r_[ys[1:] != ys[:-1], True] if len(ys) else np.zeros(0, bool)
-    for i in np.flatnonzero(last):
-        first = i
-        while first > 0 and ys[first - 1] == ys[i]:
-            first -= 1
-        run = np.zeros(fit.shape[2], np.float32)
-        for v in values[first:i]:
-            run = run + v
-        values[i] = -run
+    values = diff[ys, xs]
+    # close each row exactly in float32: its last term cancels the running sum of the others
+    for row in np.split(np.arange(len(ys)), np.flatnonzero(np.diff(ys)) + 1):
+        if len(row):
+            run = np.zeros(fit.shape[2], np.float32)
+            for v in values[row[:-1]]:
+                run = run + v
+            values[row[-1]] = -run
     points = np.column_stack([xs - c, ys - c]).astype(np.int16)
     return points, values

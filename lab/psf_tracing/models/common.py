@@ -39,7 +39,7 @@ from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
 from runtime_cl.psf.database import BASES
 from runtime_cl.psf.grid import MAX_SAMPLES
 
-__all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "check_number", "check_common", "whole_launches",
+__all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "basis_of", "check_number", "check_common", "whole_launches",
            "SYMMETRY_TAGS"]
 
 SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "optical_axis")
@@ -215,3 +215,9 @@ class BasisKeys:
     def check_basis(self) -> None:
         if self.basis not in BASES:
             raise UserError(f"basis = {self.basis!r}: choose one of {list(BASES)}")
+
+
+def basis_of(config) -> str:
+    """The spreadlet basis a model's config asks for: its ``basis`` key, else ``"laplacian"`` (the
+    models whose PSFs turn by any angle have no such key)."""
+    return getattr(config, "basis", "laplacian")

@@ -176,19 +176,15 @@ inline void splat_spreadlets_rotated(__global pix_t *lap, const int buf_w, __glo
 #if ROW_SUM
     // row differences turn by half turns only: minus the stored term, one pixel to the right
     const int flip = cs.x < 0.0f;
+#else
+    const int flip = 0;
+#endif
     const pix_t sign = flip ? (pix_t)(-1.0f) : (pix_t)1.0f;
     for (long j = j0; j < j1; ++j) {
         const short2 p = P[j];
         const float2 f = rotate_xy(cs, (float)p.x, (float)p.y);
         splat_run(lap + (long)round_px(f.y) * buf_w + round_px(f.x) + flip, sign * DB_VALUE(V, j), run_col, n);
     }
-#else
-    for (long j = j0; j < j1; ++j) {
-        const short2 p = P[j];
-        const float2 f = rotate_xy(cs, (float)p.x, (float)p.y);
-        splat_run(lap + (long)round_px(f.y) * buf_w + round_px(f.x), DB_VALUE(V, j), run_col, n);
-    }
-#endif
 }
 
 // The dense PSF of radius r turned by cs (spreadlets/rotate.cl: inverse-mapped, scaled to keep its energy)

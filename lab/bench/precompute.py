@@ -43,7 +43,6 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
     from lab.psf_tracing.models import load_model
     from lab.report.atlas import write_atlas
     from lab.report.table1 import table1_row
-    from lab.psf_tracing.models.common import basis_of
     from lab.sparsify.spreadlets import sparsify
 
     try:
@@ -56,7 +55,7 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
         traced = model.trace_checked(cell)
         t = time.perf_counter()
         sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=landed_rays(traced),
-                      basis=basis_of(model.config))
+                      basis=model.cell_basis(cell))
         entry["sparsify_largest"] = {"cell": cell, "rays": traced.n_rays,
                                      "seconds": time.perf_counter() - t, **sp.stats}
         return entry

@@ -55,7 +55,6 @@ def build_cell(model, cell: int) -> dict:
     cell : int
         Cell index in ``0 .. model.grid.size - 1``.
     """
-    from lab.psf_tracing.models.common import basis_of
     from lab.sparsify.spreadlets import sparsify
 
     cfg = model.config
@@ -64,7 +63,7 @@ def build_cell(model, cell: int) -> dict:
     t1 = time.perf_counter()
     psf = traced.psf
     sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced),
-                  basis=basis_of(cfg))
+                  basis=model.cell_basis(cell))
     t2 = time.perf_counter()
     stats = {k: float(v) for k, v in sp.stats.items()}
     values, dense = sp.values, dense_crop(psf)

@@ -22,10 +22,8 @@ __all__ = ["database_params", "consolidate"]
 
 def database_params(model, digest: str) -> dict:
     """The ``params`` the database header stores for ``model`` built under hash ``digest``."""
-    from lab.psf_tracing.models.common import basis_of
-
     return {"config": to_table(model.config), "hash": digest, "symmetries": list(model.symmetries),
-            "fingerprint": model.fingerprint(), "basis": basis_of(model.config)}
+            "fingerprint": model.fingerprint(), **model.database_basis()}
 
 
 def consolidate(model, digest: str, folder: Path, out: Path) -> None:

@@ -26,8 +26,10 @@ written atomically (temporary file in the same directory, then ``os.replace``).
 
 ``params["basis"]`` (absent: ``"laplacian"``) says what the spreadlets are: LSR18's Laplacian
 values, integrated by a Poisson solve, or backward differences along image rows (``"rows"``,
-``lab.sparsify.rows``), integrated by a prefix sum along each canvas row
-(:mod:`runtime_cl.integrate.rows`); row differences can be drawn as stored or half-turned only.
+``lab.sparsify.rows``), integrated by a prefix sum along each canvas row as the splat tiles are
+merged; row differences can be drawn as stored or half-turned only. ``"mixed"``: the cells listed
+in ``params["row_cells"]`` hold row differences, the others Laplacian values (a model whose still
+cells are drawn unturned and whose moving ones turn by any angle, e.g. ``combined``).
 """
 from __future__ import annotations
 
@@ -49,7 +51,7 @@ from runtime_cl.psf.npz_reader import read_npz
 MAGIC = "splatlab-spreadlet-db"
 FORMAT_VERSION = 1
 REQUIRED_STATS = ("sparsity", "ssim", "l1")
-BASES = ("laplacian", "rows")
+BASES = ("laplacian", "rows", "mixed")
 REBUILD = "rebuild it with `splatlab precompute SCENE`"
 # (name, dtype) of the arrays, in checksum order
 ARRAYS = (("C", np.int64), ("P", np.int16), ("V", np.float32), ("fast_track", np.bool_),
@@ -122,6 +124,13 @@ class SpreadletDatabase:
         if self.basis not in BASES:
             raise InputError(f"database params basis = {self.params.get('basis')!r}: must be one of "
                              f"{list(BASES)}; {REBUILD}")
+        if self.basis == "mixed":
+            cells = self.params.get("row_cells")
+            if not (isinstance(cells, list) and all(isinstance(c, int) and not isinstance(c, bool) for c in cells)
+                    and cells == sorted(set(cells)) and (not cells or 0 <= cells[0] <= cells[-1] < self.grid.size)):
+                raise InputError(f"database params row_cells = {str(cells)[:60]}: a database of basis 'mixed' "
+                                 f"needs the sorted, distinct indices (0 .. {self.grid.size - 1}) of its cells "
+                                 f"stored as row differences; {REBUILD}")
         if not (isinstance(self.psf_resolution, (int, np.integer)) and self.psf_resolution >= 1):
             raise InputError(f"database psf_resolution = {self.psf_resolution!r}: must be an integer >= 1")
         n, ch = self.grid.size, self.channels
@@ -158,8 +167,17 @@ class SpreadletDatabase:
 
     @property
     def basis(self) -> str:
-        """``"laplacian"`` or ``"rows"``: what the spreadlet values are (module docstring)."""
+        """``"laplacian"``, ``"rows"`` or ``"mixed"``: what the spreadlet values are (module docstring)."""
         return self.params.get("basis", "laplacian") if isinstance(self.params, dict) else "laplacian"
+
+    @property
+    def row_cells(self) -> np.ndarray:
+        """(n,) bool: the cells whose spreadlets are row differences (basis ``"rows"``: all;
+        ``"mixed"``: those in ``params["row_cells"]``; ``"laplacian"``: none)."""
+        out = np.full(self.n_samples, self.basis == "rows")
+        if self.basis == "mixed":
+            out[np.asarray(self.params["row_cells"], np.int64)] = True
+        return out
 
     @property
     def n_spreadlets(self) -> int:

@@ -8,6 +8,17 @@ from runtime_cl.device.opencl import Device, event_ms, get_device
 from runtime_cl.psf.grid_cl import PsfSpaceTables
 
 
+# How the splat kernel draws a cell (the device's ``fast`` array): Laplacian spreadlets, the dense
+# PSF (fast track), or row differences (``kernels/spreadlets/splat.cl``)
+KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS = 0, 1, 2
+
+
+def cell_kinds(db: SpreadletDatabase) -> np.ndarray:
+    """(n,) uint8: each cell's :data:`KIND_DENSE` if fast-tracked, else :data:`KIND_ROWS` or
+    :data:`KIND_LAPLACIAN` by what its spreadlets are (:attr:`SpreadletDatabase.row_cells`)."""
+    return np.where(db.fast_track, KIND_DENSE, np.where(db.row_cells, KIND_ROWS, KIND_LAPLACIAN)).astype(np.uint8)
+
+
 def row_major_order(C: np.ndarray, P: np.ndarray) -> np.ndarray:
     """Permutation that sorts each sample's spreadlets by (dy, dx), samples kept in place.
 
@@ -79,7 +90,7 @@ class DeviceDatabase:
     ----------
     buffers : dict of str -> pyopencl.Buffer
         ``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n, dense_box,
-        dense_sum, psf_thr, psf_bucket`` (``span*``, ``dense_n``: :func:`dense_row_spans`;
+        dense_sum, psf_thr, psf_bucket`` (``fast``: :func:`cell_kinds`; ``span*``, ``dense_n``: :func:`dense_row_spans`;
         ``dense_box``: :func:`dense_boxes`; ``dense_sum``: each dense PSF's sum per channel, the
         energy a turned PSF keeps).
     options : list of str
@@ -101,7 +112,7 @@ class DeviceDatabase:
         order = row_major_order(db.C, db.P)
         span_off, span, dense_n = dense_row_spans(db)
         host = {
-            "C": db.C, "P": db.P[order], "V": db.V[order], "fast": db.fast_track.astype(np.uint8),
+            "C": db.C, "P": db.P[order], "V": db.V[order], "fast": cell_kinds(db),
             "dense_r": db.dense_radius, "dense_off": db.dense_offsets, "dense_v": db.dense_values,
             "span_off": span_off, "span": span, "dense_n": dense_n,
             "dense_box": dense_boxes(db, span_off, span),
@@ -118,6 +129,5 @@ class DeviceDatabase:
                 events.append(cl.enqueue_copy(q, buf, array, is_blocking=False))
             self.buffers[name] = buf
         self.upload_ms = event_ms(*events)
-        self.has_fast = bool(db.fast_track.any())
         self.base_options = self.tables.options + [f"-DDC={db.channels}"]
         self.options = self.base_options + [f"-DPAD={db.pad}"]

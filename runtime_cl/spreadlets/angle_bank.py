@@ -30,6 +30,7 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
+from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, cell_kinds
 
 __all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_cells", "turned_dense", "turned_spreadlets"]
 
@@ -151,6 +152,19 @@ def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
     return crops
 
 
+def row_turns(P: np.ndarray, V: np.ndarray) -> tuple:
+    """A row cell's entries at angle 0 and pi: (count, count, P, V), its row differences as
+    stored and half-turned (the half turn's difference at x is minus the stored one's at 1 - x,
+    as ``splat.cl`` draws it per pixel), each sorted by (dy, dx)."""
+    turned = np.column_stack([1 - P[:, 0].astype(np.int64), -P[:, 1].astype(np.int64)])
+    parts = []
+    for p, v in ((P.astype(np.int64), V), (turned, -V)):
+        order = np.lexsort((p[:, 0], p[:, 1]))
+        parts.append((p[order], v[order]))
+    return (len(P), len(P), np.concatenate([parts[0][0], parts[1][0]]).astype(np.int16),
+            np.concatenate([parts[0][1], parts[1][1]]).astype(np.float32))
+
+
 def row_spans(dense: np.ndarray) -> np.ndarray:
     """(2r + 1, 2) int: [first, end) columns of each row's non-zero pixels (any channel); (0, 0)
     for an all-zero row (as :func:`runtime_cl.psf.upload.dense_row_spans`)."""
@@ -180,7 +194,9 @@ class AngleBank:
     arrays have the names and layouts of :class:`~runtime_cl.psf.upload.DeviceDatabase`'s
     buffers (``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n``),
     spreadlets sorted by (dy, dx), except that ``dense_v`` holds each row's span only (rows one
-    after another; ``dense_off`` indexes those values).
+    after another; ``dense_off`` indexes those values). ``fast`` holds each entry's kind
+    (:func:`~runtime_cl.psf.upload.cell_kinds`): a cell of row differences keeps them at k = 0
+    and, half-turned, at k = K_i / 2; its other entries are its dense PSF turned.
 
     Parameters
     ----------
@@ -206,8 +222,9 @@ class AngleBank:
         self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
         k_of = np.zeros(n, np.int32)
         P_parts, V_parts, counts, fast, radii, dense_parts = [], [], [], [], [], []
+        kinds = cell_kinds(db)
         for i in range(n):
-            is_fast = bool(db.fast_track[i])
+            is_fast = kinds[i] != KIND_LAPLACIAN   # row cells turn dense, except by half turns
             if is_fast:
                 psf = db.dense_psf(i)
                 # the crop's corner (its turned reach), not its farthest non-zero pixel: that
@@ -221,16 +238,24 @@ class AngleBank:
             cs = np.array([bank_cs(k, K) for k in range(K)])
             if is_fast:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array
                 dense = [d for a in range(0, K, 64) for d in turned_dense(psf, cs[a:a + 64])]
-                P_parts.append(np.zeros((0, 2), np.int16))
-                V_parts.append(np.zeros((0, ch), np.float32))
-                counts.extend([0] * K)
+                entry_kinds = [KIND_DENSE] * K
+                cnt = np.zeros(K, np.int64)
+                pts, vals = np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32)
+                if kinds[i] == KIND_ROWS:   # the stored and the half-turned row differences
+                    cnt[0], cnt[K // 2], pts, vals = row_turns(*db.spreadlets(i))
+                    entry_kinds[0] = entry_kinds[K // 2] = KIND_ROWS
+                    dense[0] = dense[K // 2] = np.zeros((1, 1, ch), np.float32)
+                P_parts.append(pts)
+                V_parts.append(vals)
+                counts.extend(cnt.tolist())
             else:
                 cnt, pts, vals = turned_spreadlets(p, v, cs)
                 P_parts.append(pts)
                 V_parts.append(vals)
                 counts.extend(cnt.tolist())
                 dense = [np.zeros((1, 1, ch), np.float32)] * K
-            fast.extend([is_fast] * K)
+                entry_kinds = [KIND_LAPLACIAN] * K
+            fast.extend(entry_kinds)
             radii.extend(d.shape[0] // 2 for d in dense)
             dense_parts.extend(dense)
         self.angles = k_of

@@ -269,20 +269,24 @@ class _Spreadlets:
 
     @staticmethod
     def image(r: Renderer, out, h: int, w: int) -> tuple:
-        """The cropped image and the integrator's times."""
-        p, lap = out.pad, out.canvas[0]
-        if r.integrator is None:   # row differences: the merge kernel summed them along the rows
-            image = lap[p:p + h, p:p + w].copy()
-            times = {"device_ms": 0.0, "transfer_ms": 0.0}
-        # an all-zero Laplacian integrates to zero; skip the integration when nothing was splat
-        elif out.spreadlets:
-            full, times = integrate_support(r.integrator, lap) if r.crop_integration else r.integrator(lap)
-            image = full[p:p + h, p:p + w]
-        else:
-            image, times = np.zeros((h, w, lap.shape[-1]), np.float32), {"device_ms": 0.0, "transfer_ms": 0.0}
-        if out.canvas.shape[0] > 1:
-            image += out.canvas[1, p:p + h, p:p + w]
-        return image, times
+        """The cropped image (the integrated Laplacian plane plus the dense and row planes, which
+        the merge kernel summed along their rows) and the integrator's times."""
+        p, times = out.pad, {"device_ms": 0.0, "transfer_ms": 0.0}
+        image = None
+        for plane, kind in zip(out.canvas, out.kinds):
+            if kind == "laplacian":
+                # an all-zero Laplacian integrates to zero: skip the integration when nothing was splat
+                if not plane.any():
+                    continue
+                full, times = integrate_support(r.integrator, plane) if r.crop_integration else r.integrator(plane)
+                part = full[p:p + h, p:p + w]
+            else:
+                part = plane[p:p + h, p:p + w]
+            if image is None:
+                image = part.copy()
+            else:
+                image += part
+        return (np.zeros((h, w, out.canvas.shape[-1]), np.float32) if image is None else image), times
 
 
 class _Splat(_Spreadlets):

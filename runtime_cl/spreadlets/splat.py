@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from runtime_cl.device.opencl import event_ms
-from runtime_cl.psf.upload import DeviceDatabase
+from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, DeviceDatabase, cell_kinds
 from runtime_cl.spreadlets.angle_bank import AngleBank
 from runtime_cl.errors import InputError
 from runtime_cl.integrate.poisson import fft_friendly
@@ -26,6 +26,8 @@ from runtime_cl.integrate.poisson import fft_friendly
 # 1196 (16), 774 (32), 684 (64), 613 (128); demo database: 1179 (32), 1021 (64), 770 (128).
 RUN_MAX = 128
 SPREADLET_ROTATIONS = ("bilinear", "nearest", "bank")
+# The canvas planes a splat pass can draw (SplatOutput.kinds), in plane order
+KINDS = ("laplacian", "dense", "rows")
 # What the Renderer and the spreadlet passes use. "bank" (runtime_cl/spreadlets/angle_bank.py) is
 # opt-in: on whirl's database it holds 160 k turned PSFs at 0.25 px and takes minutes to build
 # (README "Where a spreadlet frame's time goes")
@@ -39,9 +41,11 @@ class SplatOutput:
     Attributes
     ----------
     canvas : ndarray, float32, (groups, Hc, Wc, OC)
-        Group 0: the Laplacian (spreadlets) or, for the Splat baseline, the dense image; group 1
-        (spreadlets with fast track only): the dense fast-track image. Input pixel (x, y) sits
-        at canvas (x + pad, y + pad).
+        One plane per entry of ``kinds``. Input pixel (x, y) sits at canvas (x + pad, y + pad).
+    kinds : tuple of str
+        What each plane holds: ``"laplacian"`` (Laplacian spreadlets, to integrate), ``"dense"``
+        (dense PSFs: the Splat baseline's image, or the fast track and turned row cells) and
+        ``"rows"`` (row differences, already summed along the rows: image). In that order.
     pad : int
         Canvas padding.
     splat_ms, merge_ms, download_ms : float
@@ -55,6 +59,7 @@ class SplatOutput:
     """
 
     canvas: np.ndarray
+    kinds: tuple
     pad: int
     splat_ms: float
     merge_ms: float
@@ -144,27 +149,26 @@ class TileSplatter:
         self.colour_channels = colour_channels
         self.out_channels = max(colour_channels, ddb.db.channels)
         self.run_max = int(run_max)
-        has_fast = ddb.has_fast and not self.dense_all
-        self.groups = 2 if has_fast else 1
         self.rotate = bool(rotate)
         self.half_turns = self.rotate and bool(half_turns)
         self.bank = None
         if self.rotate and not self.half_turns and not self.dense_all and spreadlet_rotation == "bank":
             self.bank = bank if bank is not None else AngleBank(ddb.db)
-        # row differences (database basis "rows"): merge_tiles sums them along each canvas row
-        self.row_sum = ddb.db.basis == "rows" and not self.dense_all
-        if self.row_sum and self.rotate and not self.half_turns:
+        if ddb.db.basis == "rows" and self.rotate and not self.half_turns and not self.dense_all:
             raise InputError(f"database {ddb.db.model!r} stores row differences (basis 'rows'), which turn "
                              "by 180 degrees only; rebuild it with basis = 'laplacian' to turn its PSFs by any angle")
         turns = self.rotate and self.bank is None   # the kernel turns PSFs per pixel (rotate.cl)
+        self.kinds = self._kinds(turns)
         self.pad = ddb.db.rotated_pad if self.rotate and not self.half_turns else ddb.db.pad
         if self.bank is not None:
             self.pad = self.bank.pad
         options = ddb.base_options + [f"-DPAD={self.pad}", f"-DCC={colour_channels}", f"-DOC={self.out_channels}",
-                                      f"-DDENSE_ALL={int(self.dense_all)}", f"-DHAS_FAST={int(has_fast)}",
-                                      f"-DGROUPS={self.groups}", f"-DRUN_MAX={self.run_max}",
-                                      f"-DROTATE={int(turns)}", f"-DBANK={int(self.bank is not None)}", f"-DROW_SUM={int(self.row_sum)}",
+                                      f"-DDENSE_ALL={int(self.dense_all)}", f"-DGROUPS={self.groups}",
+                                      f"-DRUN_MAX={self.run_max}", f"-DROTATE={int(turns)}",
+                                      f"-DBANK={int(self.bank is not None)}",
                                       f"-DSPREADLET_BILINEAR={int(spreadlet_rotation == 'bilinear')}"]
+        options += [f"-D{macro}={self.kinds.index(kind) if kind in self.kinds else -1}"
+                    for kind, macro in zip(KINDS, ("LAP_GROUP", "DENSE_GROUP", "ROW_GROUP"))]
         rotate = ("spreadlets/rotate.cl",) if turns else ()
         self.turns = turns
         self._bank_buffers = self._upload_bank() if self.bank is not None else {}
@@ -176,6 +180,21 @@ class TileSplatter:
         self.merge_kernel.set_scalar_arg_dtypes([None, None] + [np.int32] * 6)
         self._scratch: dict = {}
         self.device.warm_up(self.build, self._warm_up)
+
+    @property
+    def groups(self) -> int:
+        """Canvas planes (:attr:`SplatOutput.kinds`)."""
+        return len(self.kinds)
+
+    def _kinds(self, turns: bool) -> tuple:
+        """The planes this splatter's frames draw into (:attr:`SplatOutput.kinds`)."""
+        if self.dense_all:
+            return ("dense",)
+        kinds = self.bank.fast if self.bank is not None else cell_kinds(self.ddb.db)
+        has = {kind: bool(np.any(kinds == code)) for kind, code in zip(KINDS, (KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS))}
+        # a row cell turned by other than a half turn draws its dense PSF (splat.cl)
+        has["dense"] |= turns and not self.half_turns and has["rows"]
+        return tuple(kind for kind in KINDS if has[kind])
 
     def _upload_bank(self) -> dict:
         """The bank's arrays on the device, under the database buffers' names they replace."""
@@ -292,5 +311,5 @@ class TileSplatter:
         ev_counts = cl.enqueue_copy(q, counts, counts_buf, wait_for=[ev_splat], is_blocking=False)
         ev_down.wait()
         ev_counts.wait()
-        return SplatOutput(canvas, pad, event_ms(ev_splat), event_ms(ev_merge), event_ms(ev_down),
+        return SplatOutput(canvas, self.kinds, pad, event_ms(ev_splat), event_ms(ev_merge), event_ms(ev_down),
                            int(counts[:, 0].sum()), int(counts[:, 1].sum()), ntiles, (tw, th))

@@ -36,10 +36,9 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture, get_aperture, make_aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
-from runtime_cl.psf.database import BASES
 from runtime_cl.psf.grid import MAX_SAMPLES
 
-__all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "basis_of", "check_number", "check_common", "whole_launches",
+__all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "check_number", "check_common", "whole_launches",
            "SYMMETRY_TAGS"]
 
 SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "optical_axis")
@@ -212,12 +211,6 @@ class BasisKeys:
 
     basis: str = "rows"
 
-    def check_basis(self) -> None:
-        if self.basis not in BASES:
-            raise UserError(f"basis = {self.basis!r}: choose one of {list(BASES)}")
-
-
-def basis_of(config) -> str:
-    """The spreadlet basis a model's config asks for: its ``basis`` key, else ``"laplacian"`` (the
-    models whose PSFs turn by any angle have no such key)."""
-    return getattr(config, "basis", "laplacian")
+    def check_basis(self, bases=("rows", "laplacian")) -> None:
+        if self.basis not in bases:
+            raise UserError(f"basis = {self.basis!r}: choose one of {list(bases)}")

@@ -2,7 +2,7 @@
 //
 // Work item t owns the input tile [x0, x0 + tile_w) x [y0, y0 + tile_h) and a private buffer
 // covering the canvas pixels those pixels can reach: (tile_h + 2 PAD) rows of (tile_w + 2 PAD)
-// pixels, GROUPS planes (group 0: Laplacian or dense, group 1: fast-track dense). It zeroes its
+// pixels, GROUPS planes (LAP_GROUP, DENSE_GROUP, ROW_GROUP below). It zeroes its
 // buffer and adds into it sequentially, so plain += is exact. merge_tiles then sums the
 // overlapping tiles of each canvas pixel in a fixed order (bit-reproducible results).
 // Canvas coordinates: input pixel (x, y) sits at (x + PAD, y + PAD).
@@ -27,10 +27,16 @@
 //   CC, DC, OC   colour channels (1, 3 or 4), database channels (1 or 3), output channels
 //                = max(CC, DC); see prelude/pixels.cl
 //   PAD          canvas padding: largest spreadlet offset or dense radius + 1
-//   DENSE_ALL    1: every pixel splats its dense PSF (LSR18's Splat baseline) into group 0;
-//                0: spreadlets into group 0, fast-tracked cells dense into group 1 (if HAS_FAST)
-//   HAS_FAST     the database has fast-tracked cells (0 saves the second group)
-//   GROUPS       planes groups per tile: 1 + (HAS_FAST && !DENSE_ALL)
+//   DENSE_ALL    1: every pixel splats its dense PSF (LSR18's Splat baseline) into DENSE_GROUP;
+//                0: each cell as its kind says (fast[cell], runtime_cl/psf/upload.py KIND_*):
+//                0 Laplacian spreadlets into LAP_GROUP, 1 its dense PSF into DENSE_GROUP (the fast
+//                track), 2 row differences into ROW_GROUP
+//   LAP_GROUP, DENSE_GROUP, ROW_GROUP  the tile plane of each (-1: the frame draws none of them).
+//                ROW_GROUP holds row differences (database basis "rows" or "mixed"), not a
+//                Laplacian: merge_tiles writes each of its canvas rows' prefix sums (in double),
+//                which is the image. With ROTATE a half turn draws minus the stored difference at
+//                1 - x; any other turn of a row cell draws its dense PSF turned, into DENSE_GROUP.
+//   GROUPS       planes per tile (those of the three that are >= 0)
 //   RUN_MAX      longest run of same-cell pixels splat together (default 128)
 //   ROTATE       1: every pixel's PSF is turned by its angle (spreadlets/rotate.cl, which must come before
 //                this file); runs then also need the same angle. Spreadlet offsets are turned
@@ -40,16 +46,12 @@
 //                angle and dense_sum buffers are not read, the code is the unrotated one.
 //   SPREADLET_BILINEAR  (with ROTATE) 1: turned spreadlets are shared bilinearly among four
 //                pixels, 0: moved to the nearest pixel (splat_spreadlets_rotated)
-//   ROW_SUM      1: group 0 holds row differences (a database of basis "rows"), not a Laplacian:
-//                merge_tiles writes each canvas row's prefix sum (in double), which is the image.
-//                With ROTATE only half turns occur (the Renderer checks): the half-turned PSF's
-//                difference at x is minus the stored one's at 1 - x.
 //   BANK         1 (with ROTATE 0): the database buffers hold an angle bank
 //                (runtime_cl/spreadlets/angle_bank.py): cell i turned by 2 pi k / bank_k[i] is
 //                entry bank_base[i] + k; a pixel takes the entry of the angle nearest its own and
-//                splats it unturned. Runs then need the same cell and angle index.
+//                splats it unturned (row-difference entries come half-turned already). Runs then
+//                need the same cell and angle index.
 
-#define DENSE_GROUP (DENSE_ALL ? 0 : 1)
 #ifndef RUN_MAX
 #define RUN_MAX 128
 #endif
@@ -62,10 +64,7 @@
 #ifndef BANK
 #define BANK 0
 #endif
-#ifndef ROW_SUM
-#define ROW_SUM 0
-#endif
-#if ROW_SUM
+#if ROW_GROUP >= 0
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
 
@@ -173,17 +172,10 @@ inline void splat_spreadlets_rotated(__global pix_t *lap, const int buf_w, __glo
         return;
     }
 #endif
-#if ROW_SUM
-    // row differences turn by half turns only: minus the stored term, one pixel to the right
-    const int flip = cs.x < 0.0f;
-#else
-    const int flip = 0;
-#endif
-    const pix_t sign = flip ? (pix_t)(-1.0f) : (pix_t)1.0f;
     for (long j = j0; j < j1; ++j) {
         const short2 p = P[j];
         const float2 f = rotate_xy(cs, (float)p.x, (float)p.y);
-        splat_run(lap + (long)round_px(f.y) * buf_w + round_px(f.x) + flip, sign * DB_VALUE(V, j), run_col, n);
+        splat_run(lap + (long)round_px(f.y) * buf_w + round_px(f.x), DB_VALUE(V, j), run_col, n);
     }
 }
 
@@ -318,8 +310,17 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
             const long centre = (long)(y - y0 + PAD) * buf_w + (x - x0 + PAD);
             x += n;
-#if DENSE_ALL || HAS_FAST
-            if (DENSE_ALL || fast[cell]) {
+#if DENSE_ALL
+            const int kind = 1;
+#else
+            int kind = fast[cell];   // runtime_cl/psf/upload.py KIND_*
+#if ROTATE && ROW_GROUP >= 0
+            // row differences turn by half turns only (cs = (-1, 0) exactly); other turns: dense
+            if (kind == 2 && turned && cs.y != 0.0f) kind = 1;
+#endif
+#endif
+#if DENSE_GROUP >= 0
+            if (kind == 1) {
                 const int r = dense_r[cell];
 #if ROTATE
                 if (turned)
@@ -334,9 +335,31 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                 continue;
             }
 #endif
-            __global pix_t *lap = tile + centre;
             const long j0 = C[cell], j1 = C[cell + 1];
             n_spreadlets += (j1 - j0) * n;
+#if ROW_GROUP >= 0
+            if (kind == 2) {
+                __global pix_t *row = tile + ROW_GROUP * group_stride + centre;
+#if ROTATE
+                // a half turn: minus each stored difference, one pixel to the right of its turned place
+                const int flip = turned;
+                const pix_t sign = flip ? (pix_t)(-1.0f) : (pix_t)1.0f;
+                for (long j = j0; j < j1; ++j) {
+                    const short2 p = P[j];
+                    splat_run(row + (long)(flip ? -p.y : p.y) * buf_w + (flip ? 1 - p.x : p.x),
+                              sign * DB_VALUE(V, j), run_col, n);
+                }
+#else
+                for (long j = j0; j < j1; ++j) {
+                    const short2 p = P[j];
+                    splat_run(row + (long)p.y * buf_w + p.x, DB_VALUE(V, j), run_col, n);
+                }
+#endif
+                continue;
+            }
+#endif
+#if LAP_GROUP >= 0
+            __global pix_t *lap = tile + LAP_GROUP * group_stride + centre;
 #if ROTATE
             if (turned) {
                 splat_spreadlets_rotated(lap, buf_w, P, V, j0, j1, run_col, n, cs);
@@ -347,6 +370,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                 const short2 p = P[j];
                 splat_run(lap + (long)p.y * buf_w + p.x, DB_VALUE(V, j), run_col, n);
             }
+#endif
         }
     }
     counts[2 * t] = n_spreadlets;
@@ -371,7 +395,7 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
     const int ty_lo = first_tile(cy, tile_h, buf_h), ty_hi = min(cy / tile_h, tiles_y - 1);
     for (int g = 0; g < GROUPS; ++g) {
         __global float *dst = canvas + ((long)g * canvas_h + cy) * canvas_w * OC;
-#if ROW_SUM
+#if ROW_GROUP >= 0
 #if OC == 1
         double run = 0.0;
 #else
@@ -387,8 +411,8 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
                     acc += tiles[((t * GROUPS + g) * buf_h + (cy - ty * tile_h)) * buf_w + (x - tx * tile_w)];
                 }
             }
-#if ROW_SUM
-            if (g == 0) {   // row differences: the image is their running sum
+#if ROW_GROUP >= 0
+            if (g == ROW_GROUP) {   // row differences: the image is their running sum
 #if OC == 1
                 run += (double)acc;
                 acc = (float)run;

@@ -254,6 +254,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "the ratios' base)")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="precompute: local worker processes for the database builds (default 1)")
+    p.add_argument("--set", dest="sets", action="append", metavar="KEY=VALUE",
+                   help="runtime: an option for every pass of the plan that takes it (repeatable; VALUE is "
+                        "a TOML value), e.g. --set spreadlet_rotation=bank (turned PSFs from an angle bank "
+                        "built in each pass's set-up, its time in prepare_ms)")
 
     p = sub.add_parser("db", description=DESCRIPTIONS["db"], help="spreadlet database tools")
     dbsub = p.add_subparsers(dest="db_command", required=True, metavar="DB_COMMAND")

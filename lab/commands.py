@@ -334,7 +334,7 @@ def cmd_bench(args) -> int:
 
     for path in run_bench(args.what, args.scene, args.repeats, models=args.models,
                           build=not args.no_build, workers=args.workers, quick=args.quick,
-                          passes=args.passes):
+                          passes=args.passes, sets=args.sets):
         print(f"benchmark: {path}")
     return 0
 

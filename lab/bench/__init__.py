@@ -30,7 +30,8 @@ __all__ = ["BENCHES", "run_bench"]
 def _runtime(args) -> list:
     from .runtime import bench_runtime
 
-    return [bench_runtime(args["scene"], args["repeats"], reference=args["build"], passes=args["passes"])]
+    return [bench_runtime(args["scene"], args["repeats"], reference=args["build"], passes=args["passes"],
+                          sets=args["sets"])]
 
 
 def _precompute(args) -> list:
@@ -95,7 +96,7 @@ BENCHES = {"runtime": (_runtime,), "precompute": (_precompute,), "polygon": (_po
 
 
 def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = True,
-              workers: int = 1, quick: bool = False, passes=None) -> list[Path]:
+              workers: int = 1, quick: bool = False, passes=None, sets=None) -> list[Path]:
     """Run the benchmarks ``what`` names (:data:`BENCHES`); the JSON files written."""
     from lab.errors import UserError
 
@@ -103,6 +104,8 @@ def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = Tr
         raise UserError(f"--repeats {repeats}: must be an integer >= 1")
     if what not in BENCHES:
         raise UserError(f"bench {what!r}: unknown; choose one of {list(BENCHES)}")
+    if sets and what != "runtime":
+        raise UserError(f"--set {sets[0]}: pass options are for `bench runtime`, not `bench {what}`")
     from lab.pipeline import load_scene_and_plan
 
     plan = load_scene_and_plan(scene_path)[1]
@@ -110,5 +113,5 @@ def run_bench(what: str, scene_path, repeats: int, models=None, build: bool = Tr
         raise UserError(f"--scene {scene_path}: the benches score against a reference, and this scene has none "
                         f"({plan.references[0].detail}); bench another scene")
     args = {"scene": scene_path, "repeats": repeats, "models": models, "build": build,
-            "workers": workers, "quick": quick, "passes": passes}
+            "workers": workers, "quick": quick, "passes": passes, "sets": sets}
     return [path for bench in BENCHES[what] for path in bench(args)]

@@ -47,6 +47,8 @@ def landed_rays(traced):
 
 def build_cell(model, cell: int) -> dict:
     """Trace and sparsify one cell of ``model``; the arrays of its shard (see :mod:`.shards`).
+    A ``"dual"`` model's cell is sparsified twice, as a Laplacian and as row differences
+    (``row_*`` arrays; their statistics prefixed ``row_``).
 
     Parameters
     ----------
@@ -62,22 +64,28 @@ def build_cell(model, cell: int) -> dict:
     traced = model.trace_checked(cell, seed=cfg.seed)
     t1 = time.perf_counter()
     psf = traced.psf
-    sp = sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced),
-                  basis=model.cell_basis(cell))
+    bases = ("laplacian", "rows") if model.basis == "dual" else (model.basis,)
+    fits = [sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced),
+                     basis=basis) for basis in bases]
     t2 = time.perf_counter()
-    stats = {k: float(v) for k, v in sp.stats.items()}
-    values, dense = sp.values, dense_crop(psf)
     energy = model.energy(traced)
-    if energy is not None:
-        # sparsified normalised (its thresholds are tuned so), then scaled: the Laplacian and its
-        # integration are linear, so the spreadlets draw exactly psf * energy
-        e = np.asarray(energy, np.float32)
-        values, dense = (values * e).astype(np.float32), (dense * e).astype(np.float32)
+    # sparsified normalised (its thresholds are tuned so), then scaled: the Laplacian, the row
+    # differences and their integration are linear, so the spreadlets draw exactly psf * energy
+    e = None if energy is None else np.asarray(energy, np.float32)
+    scale = (lambda a: a) if e is None else (lambda a: (a * e).astype(np.float32))
+    sp, dense = fits[0], scale(dense_crop(psf))
+    stats = {k: float(v) for k, v in sp.stats.items()}
+    if e is not None:
         stats["energy"] = float(np.mean(energy))
-    return {"cell": np.array(cell, np.int64), "points": sp.points, "values": values,
-            "fast_track": np.array(sp.fast_track), "dense": dense,
-            "stats": np.array(json.dumps(stats, sort_keys=True)), "rays": np.array(traced.n_rays, np.int64),
-            "trace_s": np.array(t1 - t0), "sparsify_s": np.array(t2 - t1)}
+    shard = {"cell": np.array(cell, np.int64), "points": sp.points, "values": scale(sp.values),
+             "fast_track": np.array(sp.fast_track), "dense": dense, "rays": np.array(traced.n_rays, np.int64),
+             "trace_s": np.array(t1 - t0), "sparsify_s": np.array(t2 - t1)}
+    if len(fits) == 2:
+        rows = fits[1]
+        stats.update({f"row_{k}": float(v) for k, v in rows.stats.items()})
+        shard.update(row_points=rows.points, row_values=scale(rows.values), row_fast_track=np.array(rows.fast_track))
+    shard["stats"] = np.array(json.dumps(stats, sort_keys=True))
+    return shard
 
 
 @dataclass(frozen=True)

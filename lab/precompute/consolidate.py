@@ -23,7 +23,7 @@ __all__ = ["database_params", "consolidate"]
 def database_params(model, digest: str) -> dict:
     """The ``params`` the database header stores for ``model`` built under hash ``digest``."""
     return {"config": to_table(model.config), "hash": digest, "symmetries": list(model.symmetries),
-            "fingerprint": model.fingerprint(), **model.database_basis()}
+            "fingerprint": model.fingerprint(), "basis": model.basis}
 
 
 def consolidate(model, digest: str, folder: Path, out: Path) -> None:
@@ -42,7 +42,9 @@ def consolidate(model, digest: str, folder: Path, out: Path) -> None:
             shard_path(folder, cell).unlink(missing_ok=True)
             raise UserError(f"precompute {model.name}: the shard of cell {cell} in {folder} is missing "
                             "or unreadable; run the same command again to retrace it")
+        rows = (shard["row_points"], shard["row_values"], bool(shard["row_fast_track"])) \
+            if model.basis == "dual" else None
         builder.add(shard["points"], shard["values"], shard["dense"], bool(shard["fast_track"]),
-                    json.loads(str(shard["stats"])))
+                    json.loads(str(shard["stats"])), rows=rows)
     out.parent.mkdir(parents=True, exist_ok=True)
     builder.build().save(out)

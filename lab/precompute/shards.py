@@ -9,7 +9,9 @@ flush) counts as missing and is traced again.
 
 Arrays: ``cell`` (int64 scalar), ``points`` int16 (k, 2), ``values`` float32 (k, C),
 ``fast_track`` bool, ``dense`` float32 (2r+1, 2r+1, C), ``stats`` (JSON string of floats),
-``rays`` int64, ``trace_s`` and ``sparsify_s`` float64 (timings, not part of the database).
+``rays`` int64, ``trace_s`` and ``sparsify_s`` float64 (timings, not part of the database); a
+``"dual"`` model's shards add ``row_points``, ``row_values`` and ``row_fast_track`` (the same cell as
+row differences).
 """
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ from runtime_cl.atomic_file import atomic_path
 __all__ = ["KEYS", "shard_path", "write_shard", "read_shard", "shard_ok", "summary"]
 
 KEYS = ("cell", "points", "values", "fast_track", "dense", "stats", "rays", "trace_s", "sparsify_s")
+ROW_KEYS = ("row_points", "row_values", "row_fast_track")
 _UNREADABLE = (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error)
 
 
@@ -37,7 +40,7 @@ def write_shard(folder: Path, shard: dict) -> Path:
     """Write ``shard`` (the arrays of :data:`KEYS`) atomically; returns its path."""
     path = shard_path(folder, int(shard["cell"]))
     with atomic_path(path, fsync=True) as tmp, open(tmp, "wb") as f:
-        np.savez(f, **{k: shard[k] for k in KEYS})   # a file object: savez adds no ".npz"
+        np.savez(f, **{k: shard[k] for k in KEYS + ROW_KEYS if k in shard})   # a file object: savez adds no ".npz"
     return path
 
 
@@ -45,7 +48,7 @@ def read_shard(folder: Path, cell: int) -> dict | None:
     """The shard of ``cell`` as a dict of arrays, or None when missing, torn or foreign."""
     try:
         with np.load(shard_path(folder, cell), allow_pickle=False) as z:
-            shard = {k: z[k] for k in KEYS}
+            shard = {k: z[k] for k in KEYS + ROW_KEYS if k in KEYS or k in z.files}
         json.loads(str(shard["stats"]))
     except _UNREADABLE:
         return None

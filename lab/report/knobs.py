@@ -154,9 +154,9 @@ register_knob(Knob("integrator", "pass", "integrator", "Poisson integrator", _in
                    refuses=lambda table: "its database stores row differences (basis 'rows'), summed along rows "
                    "as they are merged: no Poisson solve" if table.get("basis") == "rows" else None))
 # What a spreadlet is (lab/sparsify/rows.py): LSR18's Laplacian or row differences, same PSFs
-# (combined: row differences for its still cells only, "mixed").
+# (combined: both, "dual").
 register_knob(Knob("basis", "psf", "basis", "spreadlet basis",
-                   lambda base: ["laplacian", "mixed" if base == "mixed" else "rows"],
+                   lambda base: ["laplacian", "dual" if base == "dual" else "rows"],
                    applies=lambda cls: bool(getattr(cls, "integrates", False)),
                    why_not="the {pass!r} pass draws the dense PSFs, not spreadlets: their {key!r} is not used"))
 # The path tracer itself as a method: fewer samples, an independent seed, scored against the reference.

@@ -19,6 +19,8 @@ array               dtype, shape                meaning
 ``dense_offsets``   int64 (n+1,)                rows of sample i in dense_values
 ``dense_values``    float32 (sum, channels)     dense PSFs, row-major [y][x], centre at (r, r)
 ``stat__NAME``      float32 (n,)                per-sample statistics (sparsity, ssim, l1, ...)
+``row_C``, ``row_P``, ``row_V``, ``row_fast``     basis ``"dual"`` only: every sample again as row
+                                                differences (as C, P, V, fast_track)
 ==================  ==========================  ============================================
 
 n is the number of cells of the nested grid (one PSF sample per cell, in cell order). Files are
@@ -27,9 +29,10 @@ written atomically (temporary file in the same directory, then ``os.replace``).
 ``params["basis"]`` (absent: ``"laplacian"``) says what the spreadlets are: LSR18's Laplacian
 values, integrated by a Poisson solve, or backward differences along image rows (``"rows"``,
 ``lab.sparsify.rows``), integrated by a prefix sum along each canvas row as the splat tiles are
-merged; row differences can be drawn as stored or half-turned only. ``"mixed"``: the cells listed
-in ``params["row_cells"]`` hold row differences, the others Laplacian values (a model whose still
-cells are drawn unturned and whose moving ones turn by any angle, e.g. ``combined``).
+merged; row differences can be drawn as stored or half-turned only. ``"dual"``: C, P, V hold
+Laplacian values and ``row_*`` the same samples as row differences, for a model whose PSFs turn by
+any angle but mostly by none or a half turn (``combined``: still pixels, horizontal motion), which
+the runtime draws from the row differences, and every other turn from the Laplacian.
 """
 from __future__ import annotations
 
@@ -51,11 +54,13 @@ from runtime_cl.psf.npz_reader import read_npz
 MAGIC = "splatlab-spreadlet-db"
 FORMAT_VERSION = 1
 REQUIRED_STATS = ("sparsity", "ssim", "l1")
-BASES = ("laplacian", "rows", "mixed")
+BASES = ("laplacian", "rows", "dual")
 REBUILD = "rebuild it with `splatlab precompute SCENE`"
 # (name, dtype) of the arrays, in checksum order
 ARRAYS = (("C", np.int64), ("P", np.int16), ("V", np.float32), ("fast_track", np.bool_),
           ("dense_radius", np.int32), ("dense_offsets", np.int64), ("dense_values", np.float32))
+# basis "dual" only: the row differences of every sample
+ROW_ARRAYS = (("row_C", np.int64), ("row_P", np.int16), ("row_V", np.float32), ("row_fast", np.bool_))
 
 
 def _cast(name, value, dtype, shape):
@@ -88,6 +93,8 @@ class SpreadletDatabase:
         Resolution (pixels per side) the PSFs were traced at.
     C, P, V, fast_track, dense_radius, dense_offsets, dense_values : ndarray
         As in the module docstring.
+    row_C, row_P, row_V, row_fast : ndarray, optional
+        Basis ``"dual"`` only (required there): every sample's row differences.
     stats : dict of str -> ndarray
         Per-sample float32 statistics; must include sparsity, ssim and l1.
     checksum : str, optional
@@ -109,6 +116,10 @@ class SpreadletDatabase:
     dense_offsets: np.ndarray
     dense_values: np.ndarray
     stats: dict
+    row_C: np.ndarray | None = None
+    row_P: np.ndarray | None = None
+    row_V: np.ndarray | None = None
+    row_fast: np.ndarray | None = None
     checksum: str | None = None
     path: Path | None = field(default=None, repr=False)
 
@@ -124,13 +135,6 @@ class SpreadletDatabase:
         if self.basis not in BASES:
             raise InputError(f"database params basis = {self.params.get('basis')!r}: must be one of "
                              f"{list(BASES)}; {REBUILD}")
-        if self.basis == "mixed":
-            cells = self.params.get("row_cells")
-            if not (isinstance(cells, list) and all(isinstance(c, int) and not isinstance(c, bool) for c in cells)
-                    and cells == sorted(set(cells)) and (not cells or 0 <= cells[0] <= cells[-1] < self.grid.size)):
-                raise InputError(f"database params row_cells = {str(cells)[:60]}: a database of basis 'mixed' "
-                                 f"needs the sorted, distinct indices (0 .. {self.grid.size - 1}) of its cells "
-                                 f"stored as row differences; {REBUILD}")
         if not (isinstance(self.psf_resolution, (int, np.integer)) and self.psf_resolution >= 1):
             raise InputError(f"database psf_resolution = {self.psf_resolution!r}: must be an integer >= 1")
         n, ch = self.grid.size, self.channels
@@ -143,15 +147,26 @@ class SpreadletDatabase:
         self.dense_offsets = _cast("dense_offsets", self.dense_offsets, np.int64, (n + 1,))
         self.dense_values = _cast("dense_values", self.dense_values, np.float32,
                                   (int(self.dense_offsets[-1]), ch))
-        if self.C[0] != 0 or np.any(np.diff(self.C) < 0):
-            raise InputError("database array C: must start at 0 and never decrease")
+        rows = [getattr(self, name) is not None for name, _ in ROW_ARRAYS]
+        if any(rows) != (self.basis == "dual") or not (all(rows) or not any(rows)):
+            raise InputError(f"database arrays {[name for name, _ in ROW_ARRAYS]}: needed by basis 'dual' "
+                             f"and by no other; basis {self.basis!r} has {sum(rows)} of them; {REBUILD}")
+        if self.basis == "dual":
+            self.row_C = _cast("row_C", self.row_C, np.int64, (n + 1,))
+            self.row_P = _cast("row_P", self.row_P, np.int16, (int(self.row_C[-1]), 2))
+            self.row_V = _cast("row_V", self.row_V, np.float32, (int(self.row_C[-1]), ch))
+            self.row_fast = _cast("row_fast", self.row_fast, np.bool_, (n,))
+        for name in ("C", "row_C") if self.basis == "dual" else ("C",):
+            c = getattr(self, name)
+            if c[0] != 0 or np.any(np.diff(c) < 0):
+                raise InputError(f"database array {name}: must start at 0 and never decrease")
         if np.any(self.dense_radius < 0):
             raise InputError("database array dense_radius: radii must be >= 0")
         sizes = (2 * self.dense_radius.astype(np.int64) + 1) ** 2
         if self.dense_offsets[0] != 0 or np.any(np.diff(self.dense_offsets) != sizes):
             raise InputError("database array dense_offsets: must be the cumulative sum of "
                              "(2 dense_radius + 1)^2 starting at 0")
-        for name in ("V", "dense_values"):
+        for name in ("V", "dense_values", "row_V") if self.basis == "dual" else ("V", "dense_values"):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise InputError(f"database array {name}: contains NaN or infinity")
         missing = [s for s in REQUIRED_STATS if s not in self.stats]
@@ -167,17 +182,8 @@ class SpreadletDatabase:
 
     @property
     def basis(self) -> str:
-        """``"laplacian"``, ``"rows"`` or ``"mixed"``: what the spreadlet values are (module docstring)."""
+        """``"laplacian"``, ``"rows"`` or ``"dual"``: what the spreadlet values are (module docstring)."""
         return self.params.get("basis", "laplacian") if isinstance(self.params, dict) else "laplacian"
-
-    @property
-    def row_cells(self) -> np.ndarray:
-        """(n,) bool: the cells whose spreadlets are row differences (basis ``"rows"``: all;
-        ``"mixed"``: those in ``params["row_cells"]``; ``"laplacian"``: none)."""
-        out = np.full(self.n_samples, self.basis == "rows")
-        if self.basis == "mixed":
-            out[np.asarray(self.params["row_cells"], np.int64)] = True
-        return out
 
     @property
     def n_spreadlets(self) -> int:
@@ -186,8 +192,10 @@ class SpreadletDatabase:
 
     @property
     def max_offset(self) -> int:
-        """Largest |dx| or |dy| over all spreadlets (0 if there are none)."""
-        return int(np.abs(self.P.astype(np.int32)).max()) if len(self.P) else 0
+        """Largest |dx| or |dy| over all spreadlets, a dual database's row differences too (0 if
+        there are none)."""
+        parts = [p for p in (self.P, self.row_P) if p is not None and len(p)]
+        return max((int(np.abs(p.astype(np.int32)).max()) for p in parts), default=0)
 
     @property
     def pad(self) -> int:
@@ -212,6 +220,11 @@ class SpreadletDatabase:
         a, b = self.C[i], self.C[i + 1]
         return self.P[a:b], self.V[a:b]
 
+    def row_spreadlets(self, i: int):
+        """(P, V) of sample ``i``'s row differences in a ``"dual"`` database."""
+        a, b = self.row_C[i], self.row_C[i + 1]
+        return self.row_P[a:b], self.row_V[a:b]
+
     def dense_psf(self, i: int) -> np.ndarray:
         """Dense PSF of sample ``i`` as (2r+1, 2r+1, channels) float32, centre at [r, r]."""
         side = 2 * int(self.dense_radius[i]) + 1
@@ -226,7 +239,7 @@ class SpreadletDatabase:
                 "n_samples": self.n_samples, "n_spreadlets": self.n_spreadlets}
 
     def _arrays(self) -> dict:
-        arrays = {name: getattr(self, name) for name, _ in ARRAYS}
+        arrays = {name: getattr(self, name) for name, _ in ARRAYS + ROW_ARRAYS if getattr(self, name) is not None}
         arrays.update({f"stat__{k}": self.stats[k] for k in sorted(self.stats)})
         return arrays
 
@@ -252,10 +265,18 @@ class SpreadletDatabase:
                                      if not self.fast_track.all() else None),
             "mean_ssim": float(np.mean(self.stats["ssim"])),
             "fast_track": int(self.fast_track.sum()), "max_dense_radius": int(self.dense_radius.max()),
+            **(self._row_info() if self.basis == "dual" else {}),
             "pad": self.pad, "bytes": self.nbytes(),
             "file_bytes": os.path.getsize(self.path) if self.path and os.path.exists(self.path) else None,
             "checksum": computed, "checksum_ok": None if self.checksum is None else computed == self.checksum,
         }
+
+    def _row_info(self) -> dict:
+        """A dual database's row differences, as :meth:`info` summarises its Laplacian ones."""
+        sparsity = self.stats.get("row_sparsity")
+        return {"row_spreadlets": int(self.row_C[-1]), "row_fast_track": int(self.row_fast.sum()),
+                "row_sparse_only_sparsity": (float(np.mean(sparsity[~self.row_fast]))
+                                             if sparsity is not None and not self.row_fast.all() else None)}
 
     # --- files ---------------------------------------------------------------------------
     def save(self, path) -> str:
@@ -316,7 +337,8 @@ class SpreadletDatabase:
             raise InputError(f"{where}: format version {version!r}, this splatlab reads version "
                              f"{FORMAT_VERSION}; {REBUILD}")
         _check_header_types(header, where)
-        names = [n for n, _ in ARRAYS] + [f"stat__{s}" for s in header["stats"]]
+        dual = isinstance(header["params"], dict) and header["params"].get("basis") == "dual"
+        names = [n for n, _ in ARRAYS + (ROW_ARRAYS if dual else ())] + [f"stat__{s}" for s in header["stats"]]
         missing = [n for n in names if n not in arrays]
         if missing:
             raise InputError(f"{where}: arrays {missing} are missing; {REBUILD}")
@@ -330,7 +352,7 @@ class SpreadletDatabase:
         return cls(model=header["model"], params=header["params"],
                    grid=NestedGrid.from_json(header["grid"]), channels=header["channels"],
                    psf_resolution=header["psf_resolution"],
-                   **{n: arrays[n] for n, _ in ARRAYS},
+                   **{n: arrays[n] for n, _ in ARRAYS + (ROW_ARRAYS if dual else ())},
                    stats={s: arrays[f"stat__{s}"] for s in header["stats"]},
                    checksum=stored, path=path)
 
@@ -386,12 +408,14 @@ class DatabaseBuilder:
         self.model, self.params, self.grid = model, params, grid
         self.channels, self.psf_resolution = channels, psf_resolution
         self._points, self._values, self._dense, self._fast = [], [], [], []
+        self._rows: list = []   # basis "dual": (points, values, fast_track) per sample
         self._stats: dict = {}
 
     def __len__(self) -> int:
         return len(self._points)
 
-    def add(self, points, values, dense, fast_track: bool = False, stats: dict | None = None) -> int:
+    def add(self, points, values, dense, fast_track: bool = False, stats: dict | None = None,
+            rows: tuple | None = None) -> int:
         """Append the next sample; returns its index.
 
         Parameters
@@ -406,21 +430,25 @@ class DatabaseBuilder:
             Splat this sample dense at run time (default False).
         stats : dict of str -> float
             This sample's statistics; the same names for every sample.
+        rows : (points, values, fast_track), optional
+            The sample's row differences: required for every sample of a ``"dual"`` database
+            (params ``basis``), refused otherwise.
         """
         i = len(self)
+        dual = isinstance(self.params, dict) and self.params.get("basis") == "dual"
+        if (rows is not None) != dual:
+            raise InputError(f"sample {i} rows: {'needed' if dual else 'given'} for a database of basis "
+                             f"{self.params.get('basis', 'laplacian') if isinstance(self.params, dict) else 'laplacian'!r}")
+        if rows is not None:
+            rows = (*self._terms(i, *rows[:2]), bool(rows[2]))
         if i >= self.grid.size:
             raise InputError(f"database builder: sample {i} is beyond the {self.grid.size} cells of the grid")
-        pts = np.asarray(points).reshape(-1, 2)
-        if pts.size and (not np.issubdtype(pts.dtype, np.integer) or np.abs(pts).max() > 32767):
-            raise InputError(f"sample {i} points: need integer offsets with |d| <= 32767")
-        vals = np.asarray(values, dtype=np.float32)
-        vals = vals[:, None] if vals.ndim == 1 else vals
+        pts, vals = self._terms(i, points, values)
         d = np.asarray(dense, dtype=np.float32)
         if d.ndim == 2:
             d = d[..., None]
-        if vals.shape != (len(pts), self.channels) or d.shape[2:] != (self.channels,):
-            raise InputError(f"sample {i}: values {vals.shape} / dense {d.shape} do not match "
-                             f"{len(pts)} point(s) with {self.channels} channel(s)")
+        if d.shape[2:] != (self.channels,):
+            raise InputError(f"sample {i}: dense {d.shape} does not have {self.channels} channel(s)")
         if d.ndim != 3 or d.shape[0] != d.shape[1] or d.shape[0] % 2 != 1:
             raise InputError(f"sample {i} dense crop: shape {d.shape}, need (2r+1, 2r+1[, channels])")
         stats = dict(stats or {})
@@ -429,11 +457,25 @@ class DatabaseBuilder:
                              f"{sorted(self._stats)}")
         for k, v in stats.items():
             self._stats.setdefault(k, []).append(float(v))
-        self._points.append(pts.astype(np.int16))
+        self._points.append(pts)
         self._values.append(vals)
         self._dense.append(d.reshape(-1, self.channels))
         self._fast.append(bool(fast_track))
+        if rows is not None:
+            self._rows.append(rows)
         return i
+
+    def _terms(self, i: int, points, values) -> tuple:
+        """(int16 (k, 2), float32 (k, channels)) of one sample's spreadlets, checked."""
+        pts = np.asarray(points).reshape(-1, 2)
+        if pts.size and (not np.issubdtype(pts.dtype, np.integer) or np.abs(pts).max() > 32767):
+            raise InputError(f"sample {i} points: need integer offsets with |d| <= 32767")
+        vals = np.asarray(values, dtype=np.float32)
+        vals = vals[:, None] if vals.ndim == 1 else vals
+        if vals.shape != (len(pts), self.channels):
+            raise InputError(f"sample {i}: values {vals.shape} do not match {len(pts)} point(s) with "
+                             f"{self.channels} channel(s)")
+        return pts.astype(np.int16), vals
 
     def build(self) -> SpreadletDatabase:
         """The database; every cell of the grid must have had its sample added."""
@@ -452,4 +494,13 @@ class DatabaseBuilder:
             dense_radius=np.array(radius, dtype=np.int32),
             dense_offsets=np.concatenate([[0], np.cumsum([len(d) for d in self._dense])]).astype(np.int64),
             dense_values=np.concatenate(self._dense),
-            stats={k: np.array(v, dtype=np.float32) for k, v in self._stats.items()})
+            stats={k: np.array(v, dtype=np.float32) for k, v in self._stats.items()},
+            **(_row_arrays(self._rows, self.channels) if self._rows else {}))
+
+
+def _row_arrays(rows: list, channels: int) -> dict:
+    """``row_C, row_P, row_V, row_fast`` of a dual database from its samples' (points, values, fast)."""
+    return {"row_C": np.concatenate([[0], np.cumsum([len(p) for p, _, _ in rows])]).astype(np.int64),
+            "row_P": np.concatenate([p for p, _, _ in rows]).reshape(-1, 2),
+            "row_V": np.concatenate([v for _, v, _ in rows]).reshape(-1, channels),
+            "row_fast": np.array([f for _, _, f in rows])}

@@ -14,9 +14,26 @@ KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS = 0, 1, 2
 
 
 def cell_kinds(db: SpreadletDatabase) -> np.ndarray:
-    """(n,) uint8: each cell's :data:`KIND_DENSE` if fast-tracked, else :data:`KIND_ROWS` or
-    :data:`KIND_LAPLACIAN` by what its spreadlets are (:attr:`SpreadletDatabase.row_cells`)."""
-    return np.where(db.fast_track, KIND_DENSE, np.where(db.row_cells, KIND_ROWS, KIND_LAPLACIAN)).astype(np.uint8)
+    """uint8 :data:`KIND_DENSE` for a fast-tracked cell, else the kind of its spreadlets: (n,), or
+    (2n,) for a ``"dual"`` database (its Laplacian cells, then the same cells' row differences)."""
+    sparse = KIND_ROWS if db.basis == "rows" else KIND_LAPLACIAN
+    kinds = np.where(db.fast_track, KIND_DENSE, sparse)
+    if db.basis == "dual":
+        kinds = np.concatenate([kinds, np.where(db.row_fast, KIND_DENSE, KIND_ROWS)])
+    return kinds.astype(np.uint8)
+
+
+def device_spreadlets(db: SpreadletDatabase) -> tuple:
+    """(C, P, V) as the device holds them: each cell's spreadlets sorted by (dy, dx)
+    (:func:`row_major_order`); a ``"dual"`` database's row differences follow as cells n .. 2n - 1
+    (C of length 2n + 1)."""
+    order = row_major_order(db.C, db.P)
+    C, P, V = db.C, db.P[order], db.V[order]
+    if db.basis == "dual":
+        order = row_major_order(db.row_C, db.row_P)
+        C = np.concatenate([C, db.row_C[1:] + C[-1]])
+        P, V = np.concatenate([P, db.row_P[order]]), np.concatenate([V, db.row_V[order]])
+    return C, P, V
 
 
 def row_major_order(C: np.ndarray, P: np.ndarray) -> np.ndarray:
@@ -109,10 +126,10 @@ class DeviceDatabase:
         self.fp64 = self.device.fp64
         self.tables = PsfSpaceTables(db.grid, self.fp64)
         ctx, q = self.device.context, self.device.queue
-        order = row_major_order(db.C, db.P)
+        C, P, V = device_spreadlets(db)
         span_off, span, dense_n = dense_row_spans(db)
         host = {
-            "C": db.C, "P": db.P[order], "V": db.V[order], "fast": cell_kinds(db),
+            "C": C, "P": P, "V": V, "fast": cell_kinds(db),
             "dense_r": db.dense_radius, "dense_off": db.dense_offsets, "dense_v": db.dense_values,
             "span_off": span_off, "span": span, "dense_n": dense_n,
             "dense_box": dense_boxes(db, span_off, span),

@@ -30,7 +30,7 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
-from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, cell_kinds
+from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS
 
 __all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_cells", "turned_dense", "turned_spreadlets"]
 
@@ -165,6 +165,28 @@ def row_turns(P: np.ndarray, V: np.ndarray) -> tuple:
             np.concatenate([parts[0][1], parts[1][1]]).astype(np.float32))
 
 
+def _with_row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, cnt, pts, vals, dense: list,
+                      kinds: list) -> tuple:
+    """Cell ``i``'s bank entries with those at angles 0 and pi (k = 0 and K / 2) replaced by a dual
+    database's row differences (or its dense PSF, if fast-tracked as rows): ``dense`` and
+    ``kinds`` in place; returns the new (counts, P, V)."""
+    K, ch = len(cs), db.channels
+    half = K // 2
+    per = list(zip(np.split(pts, np.cumsum(cnt)[:-1]), np.split(vals, np.cumsum(cnt)[:-1])))
+    empty = np.zeros((1, 1, ch), np.float32)
+    if db.row_fast[i]:
+        dense[0], dense[half] = turned_dense(db.dense_psf(i), cs[[0, half]])
+        kinds[0] = kinds[half] = KIND_DENSE
+        per[0] = per[half] = (np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32))
+    else:
+        n0, _, P, V = row_turns(*db.row_spreadlets(i))
+        per[0], per[half] = (P[:n0], V[:n0]), (P[n0:], V[n0:])
+        dense[0] = dense[half] = empty
+        kinds[0] = kinds[half] = KIND_ROWS
+    counts = np.array([len(p) for p, _ in per], np.int64)
+    return counts, np.concatenate([p for p, _ in per]), np.concatenate([v for _, v in per])
+
+
 def row_spans(dense: np.ndarray) -> np.ndarray:
     """(2r + 1, 2) int: [first, end) columns of each row's non-zero pixels (any channel); (0, 0)
     for an all-zero row (as :func:`runtime_cl.psf.upload.dense_row_spans`)."""
@@ -195,8 +217,8 @@ class AngleBank:
     buffers (``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n``),
     spreadlets sorted by (dy, dx), except that ``dense_v`` holds each row's span only (rows one
     after another; ``dense_off`` indexes those values). ``fast`` holds each entry's kind
-    (:func:`~runtime_cl.psf.upload.cell_kinds`): a cell of row differences keeps them at k = 0
-    and, half-turned, at k = K_i / 2; its other entries are its dense PSF turned.
+    (:func:`~runtime_cl.psf.upload.cell_kinds`): a ``"dual"`` database's cells hold their row
+    differences at k = 0 and, half-turned, at k = K_i / 2, as the kernel draws them per pixel.
 
     Parameters
     ----------
@@ -222,9 +244,8 @@ class AngleBank:
         self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
         k_of = np.zeros(n, np.int32)
         P_parts, V_parts, counts, fast, radii, dense_parts = [], [], [], [], [], []
-        kinds = cell_kinds(db)
         for i in range(n):
-            is_fast = kinds[i] != KIND_LAPLACIAN   # row cells turn dense, except by half turns
+            is_fast = bool(db.fast_track[i])
             if is_fast:
                 psf = db.dense_psf(i)
                 # the crop's corner (its turned reach), not its farthest non-zero pixel: that
@@ -241,20 +262,15 @@ class AngleBank:
                 entry_kinds = [KIND_DENSE] * K
                 cnt = np.zeros(K, np.int64)
                 pts, vals = np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32)
-                if kinds[i] == KIND_ROWS:   # the stored and the half-turned row differences
-                    cnt[0], cnt[K // 2], pts, vals = row_turns(*db.spreadlets(i))
-                    entry_kinds[0] = entry_kinds[K // 2] = KIND_ROWS
-                    dense[0] = dense[K // 2] = np.zeros((1, 1, ch), np.float32)
-                P_parts.append(pts)
-                V_parts.append(vals)
-                counts.extend(cnt.tolist())
             else:
                 cnt, pts, vals = turned_spreadlets(p, v, cs)
-                P_parts.append(pts)
-                V_parts.append(vals)
-                counts.extend(cnt.tolist())
                 dense = [np.zeros((1, 1, ch), np.float32)] * K
                 entry_kinds = [KIND_LAPLACIAN] * K
+            if db.basis == "dual":   # angles 0 and pi: the row differences, as the kernel draws them
+                cnt, pts, vals = _with_row_entries(db, i, cs, cnt, pts, vals, dense, entry_kinds)
+            P_parts.append(pts)
+            V_parts.append(vals)
+            counts.extend(cnt.tolist())
             fast.extend(entry_kinds)
             radii.extend(d.shape[0] // 2 for d in dense)
             dense_parts.extend(dense)

@@ -58,7 +58,9 @@ class Renderer:
         ``"rows"``) takes none: its canvas rows are summed as the tiles are merged.
     crop_integration : bool
         Integrate only the rectangle the splats reach when it is much smaller than the canvas
-        (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False.
+        (:func:`runtime_cl.integrate.crop.integrate_support`; depth layers). Default False; always
+        on for a database of basis ``"dual"``, whose Laplacian plane holds only the pixels turned by
+        other than 0 or pi (moving ones).
     hdr_ratio : float or None
         The ``spreadlets`` method splats pixels brighter than this times the image's typical
         level with their dense PSFs, outside the Laplacian canvas
@@ -85,7 +87,7 @@ class Renderer:
         self.spreadlet_rotation = spreadlet_rotation
         # None: a row-difference database needs no integrator (TileSplatter sums its rows)
         self.integrator = None if db.basis == "rows" else integrator_class(self.device)
-        self.crop_integration = bool(crop_integration)
+        self.crop_integration = bool(crop_integration) or db.basis == "dual"
         if hdr_ratio is not None and (isinstance(hdr_ratio, bool) or not (isinstance(hdr_ratio, (int, float))
                                                                     and hdr_ratio >= 1.0)):
             raise InputError(f"hdr_ratio = {hdr_ratio!r}: must be a number >= 1 (or None: no dense highlights)")

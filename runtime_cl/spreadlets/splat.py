@@ -166,6 +166,8 @@ class TileSplatter:
                                       f"-DDENSE_ALL={int(self.dense_all)}", f"-DGROUPS={self.groups}",
                                       f"-DRUN_MAX={self.run_max}", f"-DROTATE={int(turns)}",
                                       f"-DBANK={int(self.bank is not None)}",
+                                      f"-DDUAL={int(ddb.db.basis == 'dual' and self.bank is None)}",
+                                      f"-DCELLS={ddb.db.n_samples}",
                                       f"-DSPREADLET_BILINEAR={int(spreadlet_rotation == 'bilinear')}"]
         options += [f"-D{macro}={self.kinds.index(kind) if kind in self.kinds else -1}"
                     for kind, macro in zip(KINDS, ("LAP_GROUP", "DENSE_GROUP", "ROW_GROUP"))]
@@ -192,8 +194,6 @@ class TileSplatter:
             return ("dense",)
         kinds = self.bank.fast if self.bank is not None else cell_kinds(self.ddb.db)
         has = {kind: bool(np.any(kinds == code)) for kind, code in zip(KINDS, (KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS))}
-        # a row cell turned by other than a half turn draws its dense PSF (splat.cl)
-        has["dense"] |= turns and not self.half_turns and has["rows"]
         return tuple(kind for kind in KINDS if has[kind])
 
     def _upload_bank(self) -> dict:

@@ -119,20 +119,12 @@ class PSFModel(abc.ABC):
         return result
 
     # --- what the sparsifier stores --------------------------------------------------------
-    def cell_basis(self, cell: int) -> str:
-        """``"rows"`` or ``"laplacian"``: the spreadlets :func:`lab.sparsify.spreadlets.sparsify`
-        stores for ``cell``. Default: the config's ``basis`` key
-        (:class:`~lab.psf_tracing.models.common.BasisKeys`), else LSR18's Laplacian (models whose
+    @property
+    def basis(self) -> str:
+        """What the database stores (:mod:`runtime_cl.psf.database`): ``"rows"``, ``"laplacian"``
+        or ``"dual"`` (both). The config's ``basis`` key, else LSR18's Laplacian (models whose
         PSFs turn by any angle: row differences can only be drawn as stored or half-turned)."""
         return getattr(self.config, "basis", "laplacian")
-
-    def database_basis(self) -> dict:
-        """The database header's ``basis`` params (:mod:`runtime_cl.psf.database`): one basis for
-        every cell, or ``"mixed"`` with the ``row_cells`` that store row differences."""
-        bases = [self.cell_basis(i) for i in range(self.grid.size)]
-        if len(set(bases)) == 1:
-            return {"basis": bases[0]}
-        return {"basis": "mixed", "row_cells": [i for i, b in enumerate(bases) if b == "rows"]}
 
     def fingerprint(self) -> dict:
         """What a labelled image's ``splatlab.camera`` header must say for this model's database to

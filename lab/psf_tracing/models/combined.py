@@ -79,13 +79,12 @@ class CombinedConfig(LensKeys, ApertureKeys):
     motion_direction_deg : float, default 0
         The reference direction traced, degrees counter-clockwise from image +x (y up); the
         runtime rotates from it (symmetry ``motion_direction``).
-    basis : {"mixed", "laplacian"}, default "mixed"
-        What the sparsifier stores. ``"mixed"``: the still cells (motion from 0, the grid's first
-        motion interval) as row differences (:mod:`lab.sparsify.rows`): a still pixel's angle is
-        0 or pi (``coc_sign``), which row differences draw exactly, and a still background is
-        most of a frame; a pixel of those cells that moves a little (turned by another angle) is
-        drawn with the cell's dense PSF. The moving cells, turned by any angle, as LSR18's
-        Laplacian spreadlets. ``"laplacian"``: every cell as LSR18's.
+    basis : {"dual", "laplacian"}, default "dual"
+        What the sparsifier stores. ``"dual"``: every cell twice, as LSR18's Laplacian
+        spreadlets and as row differences (:mod:`lab.sparsify.rows`); the runtime draws a pixel
+        turned by 0 or pi (a still one: ``coc_sign``; one moving along the reference direction,
+        horizontal by default) from its row differences, exactly and 2-4x sparser, and every
+        other turn from its Laplacian. ``"laplacian"``: LSR18's alone.
 
     The ``aperture*`` keys (:class:`~lab.psf_tracing.models.common.ApertureKeys`) choose the
     iris, e.g. ``aperture = "polygon"``, ``aperture_blades = 6``; the ``lens_*`` keys
@@ -103,7 +102,7 @@ class CombinedConfig(LensKeys, ApertureKeys):
     density: float = 1.0
     seed: int = 0
     motion_direction_deg: float = 0.0
-    basis: str = "mixed"
+    basis: str = "dual"
 
     def __post_init__(self):
         check_number("max_coc_px", self.max_coc_px)
@@ -127,8 +126,8 @@ class CombinedConfig(LensKeys, ApertureKeys):
                 f"margin; use psf_resolution >= {need} (or smaller max_coc_px / max_motion_px)")
         self.check_aperture()
         self.check_lens()
-        if self.basis not in ("mixed", "laplacian"):
-            raise UserError(f"basis = {self.basis!r}: choose one of ['mixed', 'laplacian'] (row differences "
+        if self.basis not in ("dual", "laplacian"):
+            raise UserError(f"basis = {self.basis!r}: choose one of ['dual', 'laplacian'] (row differences "
                             "alone cannot be turned by a pixel's motion angle)")
 
 
@@ -156,11 +155,6 @@ class Combined(PSFModel):
         c = self.config
         return NestedGrid.for_samples(c.samples, c.beta, ((0.0, c.max_coc_px), (0.0, c.max_motion_px)),
                                       ("coc_radius_px", "motion_px"))
-
-    def cell_basis(self, cell: int) -> str:
-        """``"rows"`` for the still cells when ``basis = "mixed"`` (see :class:`CombinedConfig`)."""
-        still = self.boxes[cell].lo[1] == 0.0
-        return "rows" if self.config.basis == "mixed" and still else "laplacian"
 
     def rays_for_cell(self, cell: int) -> int:
         """max(rays_per_psf, rays_per_pixel * capsule area at the cell's largest r and l)."""

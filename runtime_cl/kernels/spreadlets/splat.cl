@@ -32,10 +32,14 @@
 //                0 Laplacian spreadlets into LAP_GROUP, 1 its dense PSF into DENSE_GROUP (the fast
 //                track), 2 row differences into ROW_GROUP
 //   LAP_GROUP, DENSE_GROUP, ROW_GROUP  the tile plane of each (-1: the frame draws none of them).
-//                ROW_GROUP holds row differences (database basis "rows" or "mixed"), not a
+//                ROW_GROUP holds row differences (database basis "rows" or "dual"), not a
 //                Laplacian: merge_tiles writes each of its canvas rows' prefix sums (in double),
 //                which is the image. With ROTATE a half turn draws minus the stored difference at
-//                1 - x; any other turn of a row cell draws its dense PSF turned, into DENSE_GROUP.
+//                1 - x (other turns of row differences: see DUAL).
+//   DUAL, CELLS  DUAL 1: a database of basis "dual", whose CELLS cells are stored twice (C, P, V
+//                and fast of length 2 CELLS, runtime_cl/psf/upload.py device_spreadlets): as
+//                Laplacian spreadlets (cells 0 .. CELLS - 1), drawn at turns other than 0 and pi,
+//                and as row differences (cells CELLS ..), drawn unturned and half-turned
 //   GROUPS       planes per tile (those of the three that are >= 0)
 //   RUN_MAX      longest run of same-cell pixels splat together (default 128)
 //   ROTATE       1: every pixel's PSF is turned by its angle (spreadlets/rotate.cl, which must come before
@@ -310,14 +314,19 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
             const long centre = (long)(y - y0 + PAD) * buf_w + (x - x0 + PAD);
             x += n;
+#if DUAL && ROTATE
+            // a dual database: no turn and half turns (cs = (+-1, 0) exactly) draw the row
+            // differences (cells CELLS .. 2 CELLS - 1), any other turn the Laplacian
+            const int set = turned && cs.y != 0.0f ? 0 : CELLS;
+#elif DUAL
+            const int set = CELLS;
+#else
+            const int set = 0;
+#endif
 #if DENSE_ALL
             const int kind = 1;
 #else
-            int kind = fast[cell];   // runtime_cl/psf/upload.py KIND_*
-#if ROTATE && ROW_GROUP >= 0
-            // row differences turn by half turns only (cs = (-1, 0) exactly); other turns: dense
-            if (kind == 2 && turned && cs.y != 0.0f) kind = 1;
-#endif
+            const int kind = fast[set + cell];   // runtime_cl/psf/upload.py KIND_*
 #endif
 #if DENSE_GROUP >= 0
             if (kind == 1) {
@@ -335,7 +344,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                 continue;
             }
 #endif
-            const long j0 = C[cell], j1 = C[cell + 1];
+            const long j0 = C[set + cell], j1 = C[set + cell + 1];
             n_spreadlets += (j1 - j0) * n;
 #if ROW_GROUP >= 0
             if (kind == 2) {

@@ -36,6 +36,17 @@ def _check_job(name, cache):
             assert np.all((sums > 0) & (sums <= 1)) and np.mean(sums) == pytest.approx(db.stats["energy"][i], rel=1e-4)
         else:
             np.testing.assert_allclose(sums, 1.0, rtol=1e-4)
+    assert db.basis == model.basis
+    if db.basis == "dual":   # the same PSFs again as row differences, each drawing its dense PSF
+        for i in np.flatnonzero(~db.row_fast):
+            p, v = db.row_spreadlets(i)
+            image = np.zeros((2 * db.pad + 1, 2 * db.pad + 2, db.channels))
+            np.add.at(image, (p[:, 1] + db.pad, p[:, 0] + db.pad), v)
+            drawn, dense = np.cumsum(image, axis=1), db.dense_psf(i)
+            r = dense.shape[0] // 2
+            crop = drawn[db.pad - r:db.pad + r + 1, db.pad - r:db.pad + r + 1]
+            assert np.abs(crop - dense).sum() <= 0.3 * np.abs(dense).sum()
+        assert "row_sparsity" in db.stats and db.info()["row_spreadlets"] == int(db.row_C[-1])
     img, cells = render_atlas(db, columns=4, blocks=2)
     assert len(cells) >= 3 and np.asarray(img).std() > 10
     row = table1_row(db)

@@ -187,6 +187,7 @@ def test_polygon_capsule_sweeps_the_polygon():
     ({"aperture": "image"}, "needs aperture_image"),
     ({"aperture": "image", "aperture_image": "/nonexistent/iris.png"}, "iris.png: no such file"),
     ({"motion_px": 3.0}, r"unknown key\(s\) \['motion_px'\]"),
+    ({"basis": "rows"}, r"basis = 'rows': choose one of \['dual', 'laplacian'\]"),
     ({"samples": 0}, "samples"),
 ])
 def test_bad_config_is_a_user_error_before_tracing(table, match):

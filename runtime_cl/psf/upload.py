@@ -15,25 +15,41 @@ KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS = 0, 1, 2
 
 def cell_kinds(db: SpreadletDatabase) -> np.ndarray:
     """uint8 :data:`KIND_DENSE` for a fast-tracked cell, else the kind of its spreadlets: (n,), or
-    (2n,) for a ``"dual"`` database (its Laplacian cells, then the same cells' row differences)."""
-    sparse = KIND_ROWS if db.basis == "rows" else KIND_LAPLACIAN
-    kinds = np.where(db.fast_track, KIND_DENSE, sparse)
+    (2n,) for a ``"dual"`` database (its cells turned by other than 0 or pi, then the same cells at
+    0 and pi: their row differences where :func:`half_turn_rows` says, else their Laplacian)."""
+    kinds = np.where(db.fast_track, KIND_DENSE, KIND_ROWS if db.basis == "rows" else KIND_LAPLACIAN)
     if db.basis == "dual":
-        kinds = np.concatenate([kinds, np.where(db.row_fast, KIND_DENSE, KIND_ROWS)])
+        kinds = np.concatenate([kinds, np.where(half_turn_rows(db), np.where(db.row_fast, KIND_DENSE, KIND_ROWS),
+                                                kinds)])
     return kinds.astype(np.uint8)
+
+
+def half_turn_rows(db: SpreadletDatabase) -> np.ndarray:
+    """(n,) bool: the cells of a ``"dual"`` database drawn from their row differences at 0 and pi,
+    those whose row differences cost fewer adds than their Laplacian (either's dense PSF when it
+    is fast-tracked). A still disc's rim is 2 terms per row against its Laplacian's 3-pixel-wide
+    outline; a moving capsule's rows are long ramps (fewer shutter times cover its ends), each
+    pixel a difference, where its Laplacian is zero."""
+    dense = dense_row_spans(db)[2]
+    rows = np.where(db.row_fast, dense, np.diff(db.row_C))
+    return rows < np.where(db.fast_track, dense, np.diff(db.C))
 
 
 def device_spreadlets(db: SpreadletDatabase) -> tuple:
     """(C, P, V) as the device holds them: each cell's spreadlets sorted by (dy, dx)
-    (:func:`row_major_order`); a ``"dual"`` database's row differences follow as cells n .. 2n - 1
-    (C of length 2n + 1)."""
+    (:func:`row_major_order`); a ``"dual"`` database's cells at 0 and pi follow as cells
+    n .. 2n - 1 (C of length 2n + 1): row differences or Laplacian (:func:`half_turn_rows`)."""
     order = row_major_order(db.C, db.P)
     C, P, V = db.C, db.P[order], db.V[order]
-    if db.basis == "dual":
-        order = row_major_order(db.row_C, db.row_P)
-        C = np.concatenate([C, db.row_C[1:] + C[-1]])
-        P, V = np.concatenate([P, db.row_P[order]]), np.concatenate([V, db.row_V[order]])
-    return C, P, V
+    if db.basis != "dual":
+        return C, P, V
+    rows, row_order = half_turn_rows(db), row_major_order(db.row_C, db.row_P)
+    rP, rV = db.row_P[row_order], db.row_V[row_order]
+    parts = [(rP[db.row_C[i]:db.row_C[i + 1]], rV[db.row_C[i]:db.row_C[i + 1]]) if rows[i]
+             else (P[C[i]:C[i + 1]], V[C[i]:C[i + 1]]) for i in range(db.n_samples)]
+    counts = np.cumsum([len(p) for p, _ in parts]) + C[-1]
+    return (np.concatenate([C, counts]).astype(np.int64), np.concatenate([P] + [p for p, _ in parts]),
+            np.concatenate([V] + [v for _, v in parts]))
 
 
 def row_major_order(C: np.ndarray, P: np.ndarray) -> np.ndarray:

@@ -30,7 +30,7 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
-from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS
+from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, half_turn_rows
 
 __all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_cells", "turned_dense", "turned_spreadlets"]
 
@@ -218,7 +218,8 @@ class AngleBank:
     spreadlets sorted by (dy, dx), except that ``dense_v`` holds each row's span only (rows one
     after another; ``dense_off`` indexes those values). ``fast`` holds each entry's kind
     (:func:`~runtime_cl.psf.upload.cell_kinds`): a ``"dual"`` database's cells hold their row
-    differences at k = 0 and, half-turned, at k = K_i / 2, as the kernel draws them per pixel.
+    differences at k = 0 and, half-turned, at k = K_i / 2 where the kernel draws them per pixel
+    (:func:`~runtime_cl.psf.upload.half_turn_rows`).
 
     Parameters
     ----------
@@ -244,6 +245,7 @@ class AngleBank:
         self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
         k_of = np.zeros(n, np.int32)
         P_parts, V_parts, counts, fast, radii, dense_parts = [], [], [], [], [], []
+        dual_rows = half_turn_rows(db) if db.basis == "dual" else None
         for i in range(n):
             is_fast = bool(db.fast_track[i])
             if is_fast:
@@ -266,7 +268,7 @@ class AngleBank:
                 cnt, pts, vals = turned_spreadlets(p, v, cs)
                 dense = [np.zeros((1, 1, ch), np.float32)] * K
                 entry_kinds = [KIND_LAPLACIAN] * K
-            if db.basis == "dual":   # angles 0 and pi: the row differences, as the kernel draws them
+            if dual_rows is not None and dual_rows[i]:   # angles 0 and pi: the row differences, as the kernel draws them
                 cnt, pts, vals = _with_row_entries(db, i, cs, cnt, pts, vals, dense, entry_kinds)
             P_parts.append(pts)
             V_parts.append(vals)

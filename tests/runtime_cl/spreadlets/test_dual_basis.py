@@ -13,7 +13,7 @@ from runtime_cl.errors import InputError
 from runtime_cl.integrate.poisson import laplacian5
 from runtime_cl.psf.database import DatabaseBuilder, SpreadletDatabase
 from runtime_cl.psf.grid import NestedGrid
-from runtime_cl.psf.upload import DeviceDatabase
+from runtime_cl.psf.upload import DeviceDatabase, half_turn_rows
 from runtime_cl.spreadlets.angle_bank import AngleBank
 from runtime_cl.spreadlets.renderer import Renderer
 from runtime_cl.spreadlets.splat import TileSplatter
@@ -23,11 +23,16 @@ SYMMETRIES = ["motion_direction", "coc_sign"]
 
 
 def lopsided(rng, i):
-    """A flat crescent-like crop (no symmetry, one level per cell): its dense PSF."""
-    r = int(rng.integers(2, R_MAX + 1))
+    """A flat crescent-like crop (no symmetry, one level per cell), or for every third cell a
+    square with a horizontal ramp (as a moving capsule's rows are): its dense PSF."""
+    ramp = i % 3 == 2
+    r = R_MAX if ramp else int(rng.integers(2, R_MAX + 1))
     yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
     shape = (np.hypot(xx, yy) <= r) & (np.hypot(xx - r / 2, yy + r / 3) > r / 2)
-    return (shape[..., None] * np.float32(1.0 + 0.1 * i)).astype(np.float32)
+    if ramp:
+        shape = np.ones_like(shape)
+    level = (1.0 + (xx + r) / (2 * r)) if ramp else 1.0 + 0.1 * i
+    return (shape * level)[..., None].astype(np.float32)
 
 
 def laplacian_terms(dense):
@@ -76,9 +81,9 @@ def test_dual_draws_what_the_laplacian_draws_with_fewer_terms():
     # each lit pixel drew its row differences at a half turn, its Laplacian otherwise
     half = (angle == 0) | (angle == np.float32(np.pi))
     lit, cell = np.any(colour != 0, axis=2), dual.grid.index(coords.astype(np.float64))
-    rows = np.where(dual.row_fast, 0, np.diff(dual.row_C))[cell]
-    laps = np.where(dual.fast_track, 0, np.diff(dual.C))[cell]
-    assert t["spreadlets"] == np.where(half, rows, laps)[lit].sum() < 0.8 * tl["spreadlets"]
+    laps = np.where(dual.fast_track, 0, np.diff(dual.C))
+    rows = np.where(half_turn_rows(dual), np.where(dual.row_fast, 0, np.diff(dual.row_C)), laps)
+    assert t["spreadlets"] == np.where(half, rows[cell], laps[cell])[lit].sum() < 0.9 * tl["spreadlets"]
     colour[~half] = 0.0   # half turns alone: exactly the turned dense PSFs
     out, _ = Renderer(dual).render(colour, coords, "spreadlets", angle=angle)
     exact = turned_splat_image(dual, colour, coords, angle)
@@ -113,17 +118,29 @@ def test_bank_matches_the_per_pixel_turn():
     assert err < 0.01
 
 
+def test_half_turns_take_the_cheaper_of_rows_and_laplacian():
+    """Flat crescents draw their row differences at 0 and pi; ramps (a moving capsule's rows), a
+    difference per pixel, keep their Laplacian; a row fast track costs the dense PSF."""
+    dual, _ = databases(np.random.default_rng(13), samples=12, fast=(), row_fast=(0,))
+    rows = half_turn_rows(dual)
+    ramps = np.arange(dual.n_samples) % 3 == 2
+    assert not rows[ramps].any() and rows[~ramps & (np.arange(dual.n_samples) > 0)].all()
+    assert np.all(np.diff(dual.row_C)[ramps] > np.diff(dual.C)[ramps])
+
+
 def test_bank_holds_rows_at_zero_and_half_turn():
     rng = np.random.default_rng(7)
     dual, _ = databases(rng)
-    bank = AngleBank(dual)
+    bank, rows = AngleBank(dual), half_turn_rows(dual)
+    assert rows.any() and not rows.all()
     for i in range(dual.n_samples):
         base, K = bank.base[i], bank.angles[i]
         kinds = bank.fast[base:base + K]
         others = np.delete(kinds, [0, K // 2])
-        assert kinds[0] == kinds[K // 2] == (1 if dual.row_fast[i] else 2)
-        assert np.all(others == (1 if dual.fast_track[i] else 0))
-        if not dual.row_fast[i]:
+        laplacian = 1 if dual.fast_track[i] else 0
+        assert kinds[0] == kinds[K // 2] == ((1 if dual.row_fast[i] else 2) if rows[i] else laplacian)
+        assert np.all(others == laplacian)
+        if rows[i] and not dual.row_fast[i]:
             stored = bank.C[base + 1] - bank.C[base]
             assert stored == bank.C[base + K // 2 + 1] - bank.C[base + K // 2] == len(dual.row_spreadlets(i)[0])
 

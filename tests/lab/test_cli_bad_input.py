@@ -247,10 +247,12 @@ def test_precompute_sizes_are_bounded(work, capfd, sets, needles):
 
 
 def test_a_model_whose_psfs_turn_takes_no_row_basis(work, capfd):
-    """combined turns its PSFs by the motion angle: row differences cannot turn, so the model has
-    no ``basis`` key and the error lists the keys it has."""
+    """combined turns its PSFs by the motion angle: row differences alone cannot turn, so its
+    bases are "dual" (both) and "laplacian"; physical_lens has no ``basis`` key at all."""
     fails_cleanly(["precompute", "combined", "--set", "max_coc_px=6", "--set", "max_motion_px=4",
-                   "--set", "basis=rows"], capfd, work, "unknown key(s) ['basis']", "max_motion_px")
+                   "--set", "basis=rows"], capfd, work, "basis = 'rows'", "['dual', 'laplacian']")
+    fails_cleanly(["precompute", "physical_lens", "--set", "basis=rows"], capfd, work,
+                  "unknown key(s) ['basis']")
 
 
 def test_reference_and_report_check_their_folder_first(work, capfd):

@@ -78,7 +78,7 @@ def defocus_canvas(n: int = 1024, r_max: float = 84.0, seed: int = 0, device=Non
     flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
     bufs = [cl.Buffer(device.context, flags, hostbuf=a) for a in (colour, coords)]
     out = splatter.run(*bufs, n, n)
-    return out.canvas[0], out.pad
+    return out.canvas[0].copy(), out.pad   # the splatter reuses its host canvas
 
 
 def measure_case(lap: np.ndarray, integrators: dict, repeats: int, truth: np.ndarray | None = None) -> dict:

@@ -192,6 +192,8 @@ DB_ROWS = (("model", "model"), ("samples", "PSF samples"), ("psf_resolution", "P
            ("spreadlets", "spreadlets"), ("mean_spreadlets_per_sample", "spreadlets per sample"),
            ("basis", "spreadlet basis"), ("fast_track", "fast-track (dense) samples"),
            ("mean_sparsity", "mean sparsity"), ("sparse_only_sparsity", "mean sparsity of the sparse samples"),
+           ("row_spreadlets", "row differences (dual basis)"),
+           ("row_sparse_only_sparsity", "mean sparsity of the sparse row samples (dual basis)"),
            ("mean_ssim", "mean SSIM of the stored PSFs"), ("mean_l1", "mean L1"),
            ("file_bytes", "file size [bytes]"), ("reused", "reused from the cache"),
            ("build_seconds", "build [s]"), ("rays", "rays traced"), ("trace_Mrays_per_s", "tracing [M rays/s]"),

@@ -33,12 +33,19 @@ def _span(mask: np.ndarray, size: int) -> tuple:
     return lo, lo + need
 
 
-def integrate_support(integrator, laplacian: np.ndarray) -> tuple:
+def integrate_support(integrator, laplacian: np.ndarray, box=None) -> tuple:
     """``integrator(laplacian)`` computed on the rectangle of its non-zero pixels plus a ring when
-    that is at most :data:`MAX_SHARE` of the canvas; ``(image (Hc, Wc, C) float32, times)``."""
-    nonzero = np.any(laplacian != 0, axis=2)
-    rows, cols = nonzero.any(axis=1), nonzero.any(axis=0)
-    hc, wc = nonzero.shape
+    that is at most :data:`MAX_SHARE` of the canvas; ``(image (Hc, Wc, C) float32, times)``.
+    ``box``: (y0, y1, x0, x1) outside which the Laplacian is known to be zero (the splat's
+    :attr:`~runtime_cl.spreadlets.splat.SplatOutput.laplacian_box`), instead of a scan of every
+    pixel (20 ms of a 1200^2 RGB canvas)."""
+    hc, wc = laplacian.shape[:2]
+    if box is None:
+        nonzero = np.any(laplacian != 0, axis=2)
+        rows, cols = nonzero.any(axis=1), nonzero.any(axis=0)
+    else:
+        rows, cols = np.zeros(hc, bool), np.zeros(wc, bool)
+        rows[box[0]:box[1]], cols[box[2]:box[3]] = True, True
     if not rows.any():
         return np.zeros(laplacian.shape, np.float32), {"device_ms": 0.0, "transfer_ms": 0.0}
     (y0, y1), (x0, x1) = _span(rows, hc), _span(cols, wc)

@@ -278,9 +278,10 @@ class _Spreadlets:
         for plane, kind in zip(out.canvas, out.kinds):
             if kind == "laplacian":
                 # an all-zero Laplacian integrates to zero: skip the integration when nothing was splat
-                if not plane.any():
+                if out.laplacian_box is None:
                     continue
-                full, times = integrate_support(r.integrator, plane) if r.crop_integration else r.integrator(plane)
+                full, times = integrate_support(r.integrator, plane, out.laplacian_box) if r.crop_integration \
+                    else r.integrator(plane)
                 part = full[p:p + h, p:p + w]
             else:
                 part = plane[p:p + h, p:p + w]

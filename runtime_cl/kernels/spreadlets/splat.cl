@@ -259,7 +259,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                           __global const float *dense_sum,   // (n, DC) sums (read if ROTATE)
                           __global const int4 *dense_box,    // (n,) non-zero box (read if ROTATE)
                           __global pix_t *tiles,             // (ntiles, GROUPS, buf_h, buf_w)
-                          __global long *counts,             // (ntiles, 2): spreadlets, dense px
+                          __global long *counts,             // (ntiles, 3): spreadlets, dense px, Laplacian
                           __global float4 *scratch,          // (ntiles, (2 PAD + 1)(2 PAD + 2)) (if ROTATE)
                           const int H, const int W, const int tile_w, const int tile_h,
                           const int tiles_x) {
@@ -274,7 +274,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
     for (long i = 0; i < GROUPS * group_stride; ++i) tile[i] = (pix_t)0.0f;
 
-    long n_spreadlets = 0, n_dense = 0;
+    long n_spreadlets = 0, n_dense = 0, n_laplacian = 0;
     pix_t run_col[RUN_MAX];
     for (int y = y0; y < y1; ++y) {
         int x = x0, next_cell = -1;  // next_cell: pixel x's cell when the last run looked it up
@@ -369,6 +369,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
 #if LAP_GROUP >= 0
             __global pix_t *lap = tile + LAP_GROUP * group_stride + centre;
+            n_laplacian += j1 - j0;
 #if ROTATE
             if (turned) {
                 splat_spreadlets_rotated(lap, buf_w, P, V, j0, j1, run_col, n, cs);
@@ -382,8 +383,9 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
         }
     }
-    counts[2 * t] = n_spreadlets;
-    counts[2 * t + 1] = n_dense;
+    counts[3 * t] = n_spreadlets;
+    counts[3 * t + 1] = n_dense;
+    counts[3 * t + 2] = n_laplacian;   // where the Laplacian plane can be non-zero
 }
 
 // First tile index k whose span [k step, k step + size) contains c, for 0 <= c (spans of

@@ -45,7 +45,7 @@ class SplatOutput:
         A view of the splatter's host buffer: valid until its next :meth:`TileSplatter.run`.
     kinds : tuple of str
         What each plane holds: ``"laplacian"`` (Laplacian spreadlets, to integrate), ``"dense"``
-        (dense PSFs: the Splat baseline's image, or the fast track and turned row cells) and
+        (dense PSFs: the Splat baseline's image, or the fast track) and
         ``"rows"`` (row differences, already summed along the rows: image). In that order.
     pad : int
         Canvas padding.

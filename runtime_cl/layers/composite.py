@@ -165,19 +165,20 @@ def layer_edges(layers, n_layers: int) -> np.ndarray:
         none is live). Layer ``i`` holds ``edges[i] <= coc < edges[i + 1]``, the last one also
         its upper edge.
     """
-    return _edges(_check_layers(layers), _check_count(n_layers))
+    layers = _check_layers(layers)
+    return _edges(layers, _check_count(n_layers), [_live(x) for x in layers])
 
 
-def _edges(layers: list[PixelLayer], n: int) -> np.ndarray:
-    live = np.concatenate([x.coc[_live(x)].ravel() for x in layers])
+def _edges(layers: list[PixelLayer], n: int, lives: list) -> np.ndarray:
+    live = np.concatenate([x.coc[m].ravel() for x, m in zip(layers, lives)])
     lo, hi = (float(live.min()), float(live.max())) if live.size else (0.0, 0.0)
     return np.linspace(lo, hi, n + 1)
 
 
-def _bins(layer: PixelLayer, edges: np.ndarray) -> np.ndarray:
-    """Depth layer of every pixel, -1 for culled ones."""
+def _bins(layer: PixelLayer, edges: np.ndarray, live: np.ndarray) -> np.ndarray:
+    """Depth layer of every pixel, -1 for culled ones (``live``: :func:`_live`)."""
     index = np.searchsorted(edges[1:-1], layer.coc.astype(np.float64), side="right")
-    return np.where(_live(layer), index, -1)
+    return np.where(live, index, -1)
 
 
 def check_soft(soft) -> float:
@@ -188,18 +189,18 @@ def check_soft(soft) -> float:
     return float(soft)
 
 
-def _weights(layer: PixelLayer, edges: np.ndarray, soft: float) -> np.ndarray:
+def _weights(layer: PixelLayer, edges: np.ndarray, soft: float, live: np.ndarray) -> np.ndarray:
     """(n, H, W) float32 share of every pixel in every depth layer (the module docstring's soft
-    layering); 0 for culled pixels. ``soft = 0``: 0/1, the hard bins of :func:`_bins`."""
+    layering); 0 for culled pixels (``live``: :func:`_live`). ``soft = 0``: 0/1, the hard bins of
+    :func:`_bins`."""
     n = len(edges) - 1
     if soft == 0 or n == 1 or edges[-1] == edges[0]:   # one CoC everywhere: no edge to soften
-        bins = _bins(layer, edges)
+        bins = _bins(layer, edges, live)
         return np.stack([bins == i for i in range(n)]).astype(np.float32)
     t = (layer.coc.astype(np.float64) - edges[0]) / (edges[1] - edges[0])   # position in bins
     # share above edge k (at t = k): 0 below k - soft/2, 1 above k + soft/2, linear between
     above = [np.ones_like(t)] + [np.clip((t - k) / soft + 0.5, 0.0, 1.0) for k in range(1, n)] + \
         [np.zeros_like(t)]
-    live = _live(layer)
     return np.stack([(above[i] - above[i + 1]) * live for i in range(n)]).astype(np.float32)
 
 
@@ -247,19 +248,23 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
     """
     start = time.perf_counter()
     layers = _check_layers(layers)
-    edges = _edges(layers, _check_count(n_layers))
-    weights = _hide_within_layers(layers, [_weights(x, edges, check_soft(soft)) for x in layers])
+    lives = [_live(x) for x in layers]
+    edges = _edges(layers, _check_count(n_layers), lives)
+    weights = _hide_within_layers(layers, [_weights(x, edges, check_soft(soft), m) for x, m in zip(layers, lives)])
     h, w, c = layers[0].rgb.shape
+    # once per render, not per layer (full-frame host work is most of a layered frame's host time)
+    rgba = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) for x in layers]
+    front = [np.cumsum(wt, axis=0) for wt in weights]   # each pixel's share of the layers 0 .. i
     out = np.zeros((h, w, c), np.float32)
     per_layer = []
     for index in range(len(edges) - 2, -1, -1):                     # back to front
         members = [wt[index] for wt in weights]
         if not any(m.any() for m in members):
             continue
-        colour, alpha, sites, stats = _splat_layer(splatter, layers, members)
-        nearer = sum(x.alpha * wt[:index].sum(axis=0) for x, wt in zip(layers, weights))
+        colour, alpha, sites, stats = _splat_layer(splatter, layers, rgba, members)
         known = np.ones((h, w), np.float32)
-        if np.any(nearer > 0):
+        nearer = sum(x.alpha * f[index - 1] for x, f in zip(layers, front)) if index else None
+        if nearer is not None and np.any(nearer > 0):
             hidden, times = splatter.blur(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
             _add(stats, times)
             known = 1.0 - hidden
@@ -269,7 +274,8 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
             own, times = splatter.blur(np.minimum(sites, 1.0), stats["radius_px"])
             _add(stats, times)
             opacity = np.maximum(opacity, np.minimum(own / np.clip(known, MIN_KNOWN, 1.0), 1.0))
-        out = colour * weight[..., None] + (1.0 - opacity)[..., None] * out
+        out *= (1.0 - opacity)[..., None]   # "over", in place: the same products and sums
+        out += colour * weight[..., None]
         gain = float(np.minimum(alpha * weight, 1.0).sum() / max(float(np.minimum(alpha, 1.0).sum()), 1e-30))
         per_layer.append(dict(stats, index=index, coverage_gain=gain))
     info = {"edges": edges.tolist(), "layers": per_layer[::-1],
@@ -284,12 +290,13 @@ def _add(stats: dict, times: dict) -> None:
     stats["transfer_ms"] += times["transfer_ms"]
 
 
-def _splat_layer(splatter: LayerSplatter, layers, members):
+def _splat_layer(splatter: LayerSplatter, layers, rgba, members):
     """One depth layer: resolved premultiplied colour (H, W, C), coverage (H, W), the coverage of
-    its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, times)."""
+    its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, times).
+    ``rgba``: each input layer's colour and coverage as one (H, W, C + 1) image."""
     c = layers[0].rgb.shape[2]
     parts = [(i, x, m) for i, (x, m) in enumerate(zip(layers, members)) if m.any()]
-    images = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) * m[..., None] for _, x, m in parts]
+    images = [rgba[i] * m[..., None] for i, _, m in parts]
     cocs = [np.where(m > 0, x.coc, 0.0).astype(np.float32) for _, x, m in parts]
     resolved, times = splatter.splat_layer(images, cocs, [i for i, _, _ in parts])
     radii = [np.abs(k) for k in cocs]

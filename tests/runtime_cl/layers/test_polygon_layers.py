@@ -222,8 +222,9 @@ def test_bad_input_names_the_argument(hexagon, layers, n, match):
 def test_soft_layers_of_one_coc_everywhere_are_the_hard_layers():
     """Every pixel at one CoC (an in-focus flat scene): there is no bin edge to soften, so soft
     layering gives the hard weights, not 0/0 (NaN) from the zero-width bin range."""
-    from runtime_cl.layers.composite import _edges, _weights
+    from runtime_cl.layers.composite import _live, _weights, layer_edges
 
     layer = PixelLayer(np.ones((4, 5, 3), np.float32), np.ones((4, 5), np.float32), np.full((4, 5), 2.5))
-    soft = _weights(layer, _edges([layer], 3), 0.5)
-    assert np.all(np.isfinite(soft)) and np.array_equal(soft, _weights(layer, _edges([layer], 3), 0.0))
+    live, edges = _live(layer), layer_edges([layer], 3)
+    soft = _weights(layer, edges, 0.5, live)
+    assert np.all(np.isfinite(soft)) and np.array_equal(soft, _weights(layer, edges, 0.0, live))

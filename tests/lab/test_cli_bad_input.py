@@ -352,3 +352,12 @@ def test_adaptive_reference_keys(work, capfd, new, needles):
 def test_sweep_needs_the_noise_floor(work, capfd):
     fails_cleanly(["report", scene(work, "seed = 7", "seed = 7"), "--sweep", "--no-noise-floor",
                    "--out-dir", work / "out"], capfd, work, "--sweep --no-noise-floor", "drop --no-noise-floor")
+
+
+def test_bench_pass_options_are_checked_before_any_work(work, capfd):
+    """``bench runtime --set``: an option no pass of the plan takes is refused, naming the options
+    they take, before an input is rendered; other benches take no pass options."""
+    fails_cleanly(["bench", "runtime", "--scene", SCENES / "tiny.toml", "--no-build", "--set", "bogus=1"], capfd,
+                  work, "--set bogus=1", "spreadlet_rotation")
+    fails_cleanly(["bench", "precompute", "--set", "spreadlet_rotation=bank"], capfd, work,
+                  "not `bench precompute`")

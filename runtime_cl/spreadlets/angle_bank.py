@@ -15,7 +15,8 @@ the bank entry of the angle nearest its own, and the kernel splats it with the u
 (``BANK`` in ``kernels/spreadlets/splat.cl``); runs of pixels with the same cell and angle index
 form as in a still image. Measured on whirl at 1024^2 (README, "Where a spreadlet frame's time
 goes"): Splat / spreadlets 1.4x -> 4.1x, SSIM 0.99972 against the per-pixel turn; building the
-bank of its 118 turned cells takes ~21-31 s, hence opt-in (``spreadlet_rotation="bank"``).
+bank of its 118 turned cells took ~21-31 s, now ~5 s (README), hence opt-in
+(``spreadlet_rotation="bank"``).
 
 The price is the angle quantisation: a PSF point at distance R from the centre moves by at most
 R pi / K_i. K_i is chosen per cell so that this stays below ``angle_error_px`` for the cell's
@@ -97,13 +98,16 @@ def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
     outside the crop's support |R^-1 d| < r + 1), scaled per channel to keep the stored sum.
     Only destinations within sqrt 2 of a turned non-zero pixel can be non-zero (bilinear support),
     so only those are sampled (a thin streak: a few hundred per angle instead of its whole
-    turned square). Returns K float32 crops, each the smallest centred square holding its
-    non-zero pixels."""
+    turned square). Returns, per angle, the bank's layout of the turned crop (the smallest centred
+    square holding its non-zero pixels): ``(radius, spans, values)``, spans ((2 radius + 1, 2)
+    int32, [first, end) columns of each row's non-zero pixels, (0, 0) for an empty row, as
+    :func:`runtime_cl.psf.upload.dense_row_spans`) and the float32 values inside the spans, row
+    after row."""
     r, ch = psf.shape[0] // 2, psf.shape[2]
     K = len(cs)
     ys, xs = np.nonzero(np.any(psf != 0, axis=2))
     if not len(ys):
-        return [np.zeros((1, 1, ch), np.float32)] * K
+        return [_EMPTY(ch)] * K
     sx0, sy0 = (xs - r).astype(np.float64), (ys - r).astype(np.float64)
     c, s = cs[:, :1], cs[:, 1:]
     fx, fy = c * sx0 + s * sy0, c * sy0 - s * sx0   # rotate_xy of the non-zero pixels, (K, m)
@@ -113,7 +117,11 @@ def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
     cx, cy = np.broadcast_arrays(cx, cy)
     big = 2 * int(math.ceil((r + 3) * math.sqrt(2.0))) + 1
     k = np.broadcast_to(np.arange(K)[:, None, None, None], cx.shape)
-    key = np.unique(((k * big + (cy + big // 2)) * big + (cx + big // 2)).ravel())
+    # the candidate destinations, sorted by (angle, dy, dx) and unique: marked on the (K, big, big)
+    # grid they lie in (a hash of ~10^6 keys per chunk was a third of a bank's build)
+    mark = np.zeros(K * big * big, bool)
+    mark[((k * big + (cy + big // 2)) * big + (cx + big // 2)).ravel()] = True
+    key = np.flatnonzero(mark)
     kk, rest = key // (big * big), key % (big * big)
     dy, dx = (rest // big - big // 2).astype(np.float64), (rest % big - big // 2).astype(np.float64)
     c, s = cs[kk, 0], cs[kk, 1]
@@ -138,18 +146,40 @@ def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
     val *= np.where(ok, stored / np.where(ok, turned, 1.0), 1.0)[kk]
     live = np.any(val != 0, axis=1)
     kk, dx, dy, val = kk[live], dx[live].astype(np.int64), dy[live].astype(np.int64), val[live]
+    return _spans_of(kk, dx, dy, val, K, ch)
+
+
+def _EMPTY(ch: int) -> tuple:
+    """An all-zero entry: radius 0, one empty row."""
+    return 0, np.zeros((1, 2), np.int32), np.zeros((0, ch), np.float32)
+
+
+def _spans_of(kk, dx, dy, val, K: int, ch: int) -> list:
+    """:func:`turned_dense`'s entries from the non-zero pixels (angle kk, offset (dx, dy), values),
+    sorted by (kk, dy, dx): each row's span from its first to its last pixel, zeros between."""
     bounds = np.searchsorted(kk, np.arange(K + 1))
-    crops = []
+    if not len(kk):
+        return [_EMPTY(ch)] * K
+    group = np.flatnonzero(np.diff(kk, prepend=-1) | np.diff(dy, prepend=dy[0] - 1))   # (kk, dy) runs
+    last = np.append(group[1:], len(kk)) - 1
+    first_x, end_x = dx[group], dx[last] + 1
+    starts = np.concatenate([[0], np.cumsum(end_x - first_x)])
+    values = np.zeros((int(starts[-1]), ch), np.float32)
+    values[np.repeat(starts[:-1] - first_x, last - group + 1) + dx] = val
+    g_bounds = np.searchsorted(kk[group], np.arange(K + 1))
+    out = []
     for a in range(K):
         lo, hi = bounds[a], bounds[a + 1]
         if lo == hi:
-            crops.append(np.zeros((1, 1, ch), np.float32))
+            out.append(_EMPTY(ch))
             continue
-        keep = int(max(np.abs(dx[lo:hi]).max(), np.abs(dy[lo:hi]).max()))
-        crop = np.zeros((2 * keep + 1, 2 * keep + 1, ch), np.float32)
-        crop[dy[lo:hi] + keep, dx[lo:hi] + keep] = val[lo:hi]
-        crops.append(crop)
-    return crops
+        radius = int(max(np.abs(dx[lo:hi]).max(), np.abs(dy[lo:hi]).max()))
+        g = slice(g_bounds[a], g_bounds[a + 1])
+        spans = np.zeros((2 * radius + 1, 2), np.int32)
+        rows = dy[group[g]] + radius
+        spans[rows, 0], spans[rows, 1] = first_x[g] + radius, end_x[g] + radius
+        out.append((radius, spans, values[starts[g_bounds[a]]:starts[g_bounds[a + 1]]]))
+    return out
 
 
 def row_turns(P: np.ndarray, V: np.ndarray) -> tuple:
@@ -173,7 +203,6 @@ def _with_row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, cnt, pts, v
     K, ch = len(cs), db.channels
     half = K // 2
     per = list(zip(np.split(pts, np.cumsum(cnt)[:-1]), np.split(vals, np.cumsum(cnt)[:-1])))
-    empty = np.zeros((1, 1, ch), np.float32)
     if db.row_fast[i]:
         dense[0], dense[half] = turned_dense(db.dense_psf(i), cs[[0, half]])
         kinds[0] = kinds[half] = KIND_DENSE
@@ -181,20 +210,10 @@ def _with_row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, cnt, pts, v
     else:
         n0, _, P, V = row_turns(*db.row_spreadlets(i))
         per[0], per[half] = (P[:n0], V[:n0]), (P[n0:], V[n0:])
-        dense[0] = dense[half] = empty
+        dense[0] = dense[half] = _EMPTY(ch)
         kinds[0] = kinds[half] = KIND_ROWS
     counts = np.array([len(p) for p, _ in per], np.int64)
     return counts, np.concatenate([p for p, _ in per]), np.concatenate([v for _, v in per])
-
-
-def row_spans(dense: np.ndarray) -> np.ndarray:
-    """(2r + 1, 2) int: [first, end) columns of each row's non-zero pixels (any channel); (0, 0)
-    for an all-zero row (as :func:`runtime_cl.psf.upload.dense_row_spans`)."""
-    nz = np.any(dense != 0, axis=-1)
-    has, side = nz.any(axis=1), dense.shape[1]
-    first = np.where(has, np.argmax(nz, axis=1), 0)
-    end = np.where(has, side - np.argmax(nz[:, ::-1], axis=1), 0)
-    return np.column_stack([first, end])
 
 
 def turned_cells(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -244,7 +263,7 @@ class AngleBank:
         n, ch = db.n_samples, db.channels
         self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
         k_of = np.zeros(n, np.int32)
-        P_parts, V_parts, counts, fast, radii, dense_parts = [], [], [], [], [], []
+        P_parts, V_parts, counts, fast, dense_parts = [], [], [], [], []
         dual_rows = half_turn_rows(db) if db.basis == "dual" else None
         for i in range(n):
             is_fast = bool(db.fast_track[i])
@@ -266,7 +285,7 @@ class AngleBank:
                 pts, vals = np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32)
             else:
                 cnt, pts, vals = turned_spreadlets(p, v, cs)
-                dense = [np.zeros((1, 1, ch), np.float32)] * K
+                dense = [_EMPTY(ch)] * K
                 entry_kinds = [KIND_LAPLACIAN] * K
             if dual_rows is not None and dual_rows[i]:   # angles 0 and pi: the row differences, as the kernel draws them
                 cnt, pts, vals = _with_row_entries(db, i, cs, cnt, pts, vals, dense, entry_kinds)
@@ -274,7 +293,6 @@ class AngleBank:
             V_parts.append(vals)
             counts.extend(cnt.tolist())
             fast.extend(entry_kinds)
-            radii.extend(d.shape[0] // 2 for d in dense)
             dense_parts.extend(dense)
         self.angles = k_of
         self.base = np.concatenate([[0], np.cumsum(k_of)[:-1]]).astype(np.int32)
@@ -282,16 +300,13 @@ class AngleBank:
         self.P = np.concatenate(P_parts).astype(np.int16)
         self.V = np.concatenate(V_parts).astype(np.float32)
         self.fast = np.array(fast, np.uint8)
-        self.dense_r = np.array(radii, np.int32)
-        spans = [row_spans(d) for d in dense_parts]
-        self.span_off = np.concatenate([[0], np.cumsum([len(sp) for sp in spans])]).astype(np.int64)
-        self.span = np.concatenate(spans).astype(np.int32)
+        self.dense_r = np.array([r for r, _, _ in dense_parts], np.int32)
+        self.span_off = np.concatenate([[0], np.cumsum([len(sp) for _, sp, _ in dense_parts])]).astype(np.int64)
+        self.span = np.concatenate([sp for _, sp, _ in dense_parts]).astype(np.int32)
         # values of each row's span only (a turned streak fills a small part of its square)
-        rows = [d[(np.arange(d.shape[1]) >= sp[:, :1]) & (np.arange(d.shape[1]) < sp[:, 1:])]
-                for d, sp in zip(dense_parts, spans)]
-        self.dense_n = np.array([len(v) for v in rows], np.int64)
+        self.dense_n = np.array([len(v) for _, _, v in dense_parts], np.int64)
         self.dense_off = np.concatenate([[0], np.cumsum(self.dense_n)]).astype(np.int64)
-        self.dense_v = np.concatenate(rows).astype(np.float32)
+        self.dense_v = np.concatenate([v for _, _, v in dense_parts]).astype(np.float32)
         reach = int(np.abs(self.P.astype(np.int64)).max()) if len(self.P) else 0
         self.pad = max(reach, int(self.dense_r.max())) + 1
 

@@ -60,7 +60,7 @@ class SplatOutput:
         (width, height) of a tile in input pixels.
     laplacian_box : tuple of int or None
         (y0, y1, x0, x1): the canvas rectangle outside which the ``"laplacian"`` plane is zero (the
-        buffers of the tiles that drew Laplacian spreadlets); None if none did.
+        pixels that drew Laplacian spreadlets, grown by the padding); None if none did.
     """
 
     canvas: np.ndarray
@@ -76,15 +76,15 @@ class SplatOutput:
     laplacian_box: tuple | None = None
 
 
-def _laplacian_box(drew: np.ndarray, tiles_x: int, tw: int, th: int, pad: int, hc: int, wc: int):
-    """The canvas rectangle covering the buffers of the tiles that drew Laplacian spreadlets (tile
-    t's buffer covers canvas [y0, y0 + th + 2 pad) x [x0, x0 + tw + 2 pad)), or None."""
-    t = np.flatnonzero(drew)
-    if not len(t):
+def _laplacian_box(counts: np.ndarray, pad: int, hc: int, wc: int):
+    """The canvas rectangle the Laplacian spreadlets can reach (their pixels' box, from the tiles'
+    counts, grown by the padding: pixel (x, y) sits at canvas (x + pad, y + pad) and reaches less
+    than pad), or None where no tile drew any."""
+    drew = counts[counts[:, 2] > 0]
+    if not len(drew):
         return None
-    ty, tx = t // tiles_x, t % tiles_x
-    return (int(ty.min() * th), min(int(ty.max() * th + th + 2 * pad), hc),
-            int(tx.min() * tw), min(int(tx.max() * tw + tw + 2 * pad), wc))
+    return (int(drew[:, 5].min()), min(int(drew[:, 6].max()) + 2 * pad + 1, hc),
+            int(drew[:, 3].min()), min(int(drew[:, 4].max()) + 2 * pad + 1, wc))
 
 
 def half_turns(angle: np.ndarray) -> bool:
@@ -317,7 +317,7 @@ class TileSplatter:
         tw, th, tiles_x, tiles_y, nbytes = self._layout(height, width, tile)
         ntiles = tiles_x * tiles_y
         tiles_buf = self._buffer("tiles", nbytes)
-        counts_buf = self._buffer("counts", ntiles * 24)
+        counts_buf = self._buffer("counts", ntiles * 56)
         # each work item's turned dense PSF: values and row headers (splat.cl splat_dense_rotated)
         scratch = ntiles * (2 * pad + 1) * (2 * pad + 2) * 16 if self.turns and not self.half_turns else 16
         scratch_buf = self._buffer("turned", scratch)
@@ -333,11 +333,11 @@ class TileSplatter:
         ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
                                      wait_for=[ev_splat])
         canvas = self._host_canvas((self.groups, hc, wc, oc))
-        counts = np.empty((ntiles, 3), np.int64)
+        counts = np.empty((ntiles, 7), np.int64)
         ev_down = cl.enqueue_copy(q, canvas, canvas_buf, wait_for=[ev_merge], is_blocking=False)
         ev_counts = cl.enqueue_copy(q, counts, counts_buf, wait_for=[ev_splat], is_blocking=False)
         ev_down.wait()
         ev_counts.wait()
         return SplatOutput(canvas, self.kinds, pad, event_ms(ev_splat), event_ms(ev_merge), event_ms(ev_down),
                            int(counts[:, 0].sum()), int(counts[:, 1].sum()), ntiles, (tw, th),
-                           _laplacian_box(counts[:, 2] > 0, tiles_x, tw, th, pad, hc, wc))
+                           _laplacian_box(counts, pad, hc, wc))

@@ -259,7 +259,8 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                           __global const float *dense_sum,   // (n, DC) sums (read if ROTATE)
                           __global const int4 *dense_box,    // (n,) non-zero box (read if ROTATE)
                           __global pix_t *tiles,             // (ntiles, GROUPS, buf_h, buf_w)
-                          __global long *counts,             // (ntiles, 3): spreadlets, dense px, Laplacian
+                          __global long *counts,             // (ntiles, 7): spreadlets, dense px, Laplacian
+                                                             // spreadlets, their pixels' x0, x1, y0, y1
                           __global float4 *scratch,          // (ntiles, (2 PAD + 1)(2 PAD + 2)) (if ROTATE)
                           const int H, const int W, const int tile_w, const int tile_h,
                           const int tiles_x) {
@@ -275,6 +276,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
     for (long i = 0; i < GROUPS * group_stride; ++i) tile[i] = (pix_t)0.0f;
 
     long n_spreadlets = 0, n_dense = 0, n_laplacian = 0;
+    int lap_x0 = W, lap_x1 = -1, lap_y0 = H, lap_y1 = -1;   // pixels that drew Laplacian spreadlets
     pix_t run_col[RUN_MAX];
     for (int y = y0; y < y1; ++y) {
         int x = x0, next_cell = -1;  // next_cell: pixel x's cell when the last run looked it up
@@ -370,6 +372,8 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #if LAP_GROUP >= 0
             __global pix_t *lap = tile + LAP_GROUP * group_stride + centre;
             n_laplacian += j1 - j0;
+            lap_x0 = min(lap_x0, x - n), lap_x1 = max(lap_x1, x - 1);   // the run: x - n .. x - 1
+            lap_y0 = min(lap_y0, y), lap_y1 = max(lap_y1, y);
 #if ROTATE
             if (turned) {
                 splat_spreadlets_rotated(lap, buf_w, P, V, j0, j1, run_col, n, cs);
@@ -383,9 +387,11 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
         }
     }
-    counts[3 * t] = n_spreadlets;
-    counts[3 * t + 1] = n_dense;
-    counts[3 * t + 2] = n_laplacian;   // where the Laplacian plane can be non-zero
+    __global long *out = counts + 7 * t;
+    out[0] = n_spreadlets;
+    out[1] = n_dense;
+    out[2] = n_laplacian;   // and the box of its pixels: where the Laplacian plane can be non-zero
+    out[3] = lap_x0, out[4] = lap_x1, out[5] = lap_y0, out[6] = lap_y1;
 }
 
 // First tile index k whose span [k step, k step + size) contains c, for 0 <= c (spans of

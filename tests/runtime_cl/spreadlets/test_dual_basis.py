@@ -189,3 +189,27 @@ def test_row_arrays_only_with_basis_dual():
                           row_fast=dual.row_fast, **fields)
     with pytest.raises(InputError, match="rows"):
         DatabaseBuilder("combined", {"basis": "dual"}, dual.grid, 1, 17).add([[0, 0]], [1.0], np.ones((1, 1)))
+
+
+@pytest.mark.parametrize("rotation", ["bilinear", "bank"])
+def test_laplacian_box_holds_every_laplacian_pixel(rotation):
+    """The tiles report the box of the pixels that drew Laplacian spreadlets; grown by the padding
+    it holds every non-zero pixel of the Laplacian plane (the crop integration relies on it)."""
+    rng = np.random.default_rng(14)
+    dual, _ = databases(rng, fast=(), row_fast=())
+    colour, coords = scene(rng, h=70, w=90)
+    angle = some_half_turns(rng, colour.shape[:2], share=0.95)
+    colour[:30] = 0.0   # the Laplacian pixels (turned by other than 0, pi) in the lower part only
+    renderer = Renderer(dual, spreadlet_rotation=rotation, tile=16)
+    renderer.grow_bank(colour, coords, angle)
+    wrapper = renderer._wrapper("spreadlets", 3, True)
+    import pyopencl as cl
+    ctx = renderer.device.context
+    bufs = [cl.Buffer(ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+            for a in (colour, coords, angle)]
+    result = wrapper.run(bufs[0], bufs[1], 70, 90, 16, bufs[2])
+    lap = result.canvas[result.kinds.index("laplacian")]
+    ys, xs = np.nonzero(np.any(lap != 0, axis=2))
+    y0, y1, x0, x1 = result.laplacian_box
+    assert len(ys) and y0 <= ys.min() and ys.max() < y1 and x0 <= xs.min() and xs.max() < x1
+    assert y0 >= 30 and (y1 - y0) * (x1 - x0) < lap.shape[0] * lap.shape[1]   # tighter than the canvas

@@ -20,6 +20,7 @@ TINY = {
     "physical_lens": {"samples": 10, "psf_resolution": 181, "rays_per_pixel": 16, **_RAYS},
     "volume": {"samples": 10, "psf_resolution": 63, **_RAYS},
     "volume_box": {"samples": 20, "psf_resolution": 63, **_RAYS},
+    "volume_far": {"samples": 10, "psf_resolution": 33, "pixel_scale": 5, "hole_half_px": 14, **_RAYS},
 }
 
 

@@ -124,7 +124,7 @@ class TileSplatter:
         drawn with the same PSFs; a 3-channel database draws the 4th with its green PSF).
     dense_all : bool
         True: LSR18's Splat baseline (every pixel splats its dense PSF); False: spreadlets, with
-        fast-tracked cells splat dense into a second canvas.
+        fast-tracked cells splat dense into their own plane (:attr:`SplatOutput.kinds`).
     run_max : int
         Longest run of same-cell pixels splat together (default :data:`RUN_MAX`); 1 splats
         pixel by pixel. Runs change only the float rounding of the Laplacian canvas.

@@ -196,7 +196,7 @@ class TileSplatter:
         self.splat_kernel = cl.Kernel(program, "splat_tiles")
         self.splat_kernel.set_scalar_arg_dtypes([None] * 22 + [np.int32] * 5)
         self.merge_kernel = cl.Kernel(program, "merge_tiles")
-        self.merge_kernel.set_scalar_arg_dtypes([None, None] + [np.int32] * 6)
+        self.merge_kernel.set_scalar_arg_dtypes([None, None, None] + [np.int32] * 6)
         self._scratch: dict = {}
         self._host = np.empty(0, np.float32)
         self.device.warm_up(self.build, self._warm_up)
@@ -317,7 +317,7 @@ class TileSplatter:
         tw, th, tiles_x, tiles_y, nbytes = self._layout(height, width, tile)
         ntiles = tiles_x * tiles_y
         tiles_buf = self._buffer("tiles", nbytes)
-        counts_buf = self._buffer("counts", ntiles * 56)
+        counts_buf = self._buffer("counts", ntiles * 64)
         # each work item's turned dense PSF: values and row headers (splat.cl splat_dense_rotated)
         scratch = ntiles * (2 * pad + 1) * (2 * pad + 2) * 16 if self.turns and not self.half_turns else 16
         scratch_buf = self._buffer("turned", scratch)
@@ -330,10 +330,10 @@ class TileSplatter:
             b["V"], b["fast"], b["dense_r"], b["dense_off"], b["dense_v"], b["span_off"], b["span"], b["dense_n"],
             b["dense_sum"], b["dense_box"], tiles_buf, counts_buf, scratch_buf,
             height, width, tw, th, tiles_x)
-        ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
+        ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, counts_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
                                      wait_for=[ev_splat])
         canvas = self._host_canvas((self.groups, hc, wc, oc))
-        counts = np.empty((ntiles, 7), np.int64)
+        counts = np.empty((ntiles, 8), np.int64)
         ev_down = cl.enqueue_copy(q, canvas, canvas_buf, wait_for=[ev_merge], is_blocking=False)
         ev_counts = cl.enqueue_copy(q, counts, counts_buf, wait_for=[ev_splat], is_blocking=False)
         ev_down.wait()

@@ -259,8 +259,8 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
                           __global const float *dense_sum,   // (n, DC) sums (read if ROTATE)
                           __global const int4 *dense_box,    // (n,) non-zero box (read if ROTATE)
                           __global pix_t *tiles,             // (ntiles, GROUPS, buf_h, buf_w)
-                          __global long *counts,             // (ntiles, 7): spreadlets, dense px, Laplacian
-                                                             // spreadlets, their pixels' x0, x1, y0, y1
+                          __global long *counts,             // (ntiles, 8): spreadlets, dense px, Laplacian
+                                                             // spreadlets, their pixels' x0, x1, y0, y1, lit
                           __global float4 *scratch,          // (ntiles, (2 PAD + 1)(2 PAD + 2)) (if ROTATE)
                           const int H, const int W, const int tile_w, const int tile_h,
                           const int tiles_x) {
@@ -273,10 +273,22 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #if ROTATE
     __global float4 *turned_scratch = scratch + (long)t * (2 * PAD + 1) * (2 * PAD + 2);
 #endif
-    for (long i = 0; i < GROUPS * group_stride; ++i) tile[i] = (pix_t)0.0f;
-
     long n_spreadlets = 0, n_dense = 0, n_laplacian = 0;
     int lap_x0 = W, lap_x1 = -1, lap_y0 = H, lap_y1 = -1;   // pixels that drew Laplacian spreadlets
+    __global long *out = counts + 8 * t;
+    // a tile without a lit pixel neither zeroes nor fills its buffer: merge_tiles skips it (a depth
+    // layer's pixels fill a band of the frame, so most of its tiles are empty)
+    int lit = 0;
+    for (int y = y0; y < y1 && !lit; ++y)
+        for (int x = x0; x < x1 && !lit; ++x) lit = !IS_ZERO(COLOUR(colour, (long)y * W + x));
+    out[7] = lit;
+    if (!lit) {
+        out[0] = out[1] = out[2] = 0;
+        out[3] = lap_x0, out[4] = lap_x1, out[5] = lap_y0, out[6] = lap_y1;
+        return;
+    }
+    for (long i = 0; i < GROUPS * group_stride; ++i) tile[i] = (pix_t)0.0f;
+
     pix_t run_col[RUN_MAX];
     for (int y = y0; y < y1; ++y) {
         int x = x0, next_cell = -1;  // next_cell: pixel x's cell when the last run looked it up
@@ -387,7 +399,6 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
         }
     }
-    __global long *out = counts + 7 * t;
     out[0] = n_spreadlets;
     out[1] = n_dense;
     out[2] = n_laplacian;   // and the box of its pixels: where the Laplacian plane can be non-zero
@@ -403,7 +414,7 @@ inline int first_tile(const int c, const int step, const int size) {
 // canvas (GROUPS, canvas_h, canvas_w, OC): each canvas pixel is the sum of the tile pixels
 // covering it, tiles in increasing index order. One work item per canvas row; the fixed local
 // size (1) spares PoCL a re-compile per image size.
-__kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
+__kernel void merge_tiles(__global const pix_t *tiles, __global const long *counts, __global float *canvas,
                           const int tiles_x, const int tiles_y, const int tile_w, const int tile_h,
                           const int canvas_w, const int canvas_h) {
     const int cy = get_global_id(0);
@@ -425,6 +436,7 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global float *canvas,
             for (int ty = ty_lo; ty <= ty_hi; ++ty) {
                 for (int tx = tx_lo; tx <= tx_hi; ++tx) {
                     const long t = (long)ty * tiles_x + tx;
+                    if (!counts[8 * t + 7]) continue;   // a tile without lit pixels drew nothing
                     acc += tiles[((t * GROUPS + g) * buf_h + (cy - ty * tile_h)) * buf_w + (x - tx * tile_w)];
                 }
             }

@@ -292,3 +292,21 @@ def test_bad_tile_or_run_length_is_an_input_error():
         Renderer(db, tile=(0, 4)).render(colour, coords, "splat")
     with pytest.raises(InputError, match=r"run_max = 0: must be an integer in \[1, 256\]"):
         Renderer(db, run_max=0).render(colour, coords, "spreadlets")
+
+
+@pytest.mark.parametrize("method", ["spreadlets", "splat"])
+def test_unlit_tiles_leave_nothing_from_the_last_frame(method):
+    """A tile without a lit pixel neither zeroes nor fills its buffer and the merge skips it, so a
+    frame lit only in a band (a depth layer) after a fully lit one draws that band alone."""
+    rng = np.random.default_rng(21)
+    db = random_database(rng, channels=3, fast=0.3)
+    renderer = Renderer(db, tile=8)
+    full, coords = scene(rng, db, 40, 48, 3, zero_fraction=0.0)
+    band = full.copy()
+    band[:, :20] = 0.0
+    band[30:] = 0.0
+    renderer.render(full, coords, method)
+    out, _ = renderer.render(band, coords, method)
+    fresh, _ = Renderer(db, tile=8).render(band, coords, method)
+    np.testing.assert_array_equal(out, fresh)
+    assert np.any(out[:, 20:] != 0)

@@ -2,8 +2,8 @@
 //
 // Work item t owns the input tile [x0, x0 + tile_w) x [y0, y0 + tile_h) and a private buffer
 // covering the canvas pixels those pixels can reach: (tile_h + 2 PAD) rows of (tile_w + 2 PAD)
-// pixels, GROUPS planes (LAP_GROUP, DENSE_GROUP, ROW_GROUP below). It zeroes its
-// buffer and adds into it sequentially, so plain += is exact. merge_tiles then sums the
+// pixels, GROUPS planes (LAP_GROUP, DENSE_GROUP, ROW_GROUP below). If the tile has a lit pixel it
+// zeroes its buffer and adds into it sequentially, so plain += is exact. merge_tiles then sums the
 // overlapping tiles of each canvas pixel in a fixed order (bit-reproducible results).
 // Canvas coordinates: input pixel (x, y) sits at (x + PAD, y + PAD).
 //
@@ -383,7 +383,7 @@ __kernel void splat_tiles(__global const float *colour,      // (H, W, CC)
 #endif
 #if LAP_GROUP >= 0
             __global pix_t *lap = tile + LAP_GROUP * group_stride + centre;
-            n_laplacian += j1 - j0;
+            n_laplacian += (j1 - j0) * n;
             lap_x0 = min(lap_x0, x - n), lap_x1 = max(lap_x1, x - 1);   // the run: x - n .. x - 1
             lap_y0 = min(lap_y0, y), lap_y1 = max(lap_y1, y);
 #if ROTATE
@@ -411,8 +411,8 @@ inline int first_tile(const int c, const int step, const int size) {
     return c < size ? 0 : (c - size) / step + 1;
 }
 
-// canvas (GROUPS, canvas_h, canvas_w, OC): each canvas pixel is the sum of the tile pixels
-// covering it, tiles in increasing index order. One work item per canvas row; the fixed local
+// canvas (GROUPS, canvas_h, canvas_w, OC): each canvas pixel is the sum of the pixels of the lit
+// tiles covering it (counts[8 t + 7]), tiles in increasing index order. One work item per canvas row; the fixed local
 // size (1) spares PoCL a re-compile per image size.
 __kernel void merge_tiles(__global const pix_t *tiles, __global const long *counts, __global float *canvas,
                           const int tiles_x, const int tiles_y, const int tile_w, const int tile_h,

@@ -256,27 +256,33 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
     rgba = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) for x in layers]
     front = [_running_sums(wt) for wt in weights]   # each pixel's share of the layers 0 .. i
     out = np.zeros((h, w, c), np.float32)
+    ones = np.ones((h, w), np.float32)
     per_layer = []
     for index in range(len(edges) - 2, -1, -1):                     # back to front
         members = [wt[index] for wt in weights]
         if not any(m.any() for m in members):
             continue
         colour, alpha, sites, stats = _splat_layer(splatter, layers, rgba, members)
-        known = np.ones((h, w), np.float32)
+        known = ones
         nearer = sum(x.alpha * f[index - 1] for x, f in zip(layers, front)) if index else None
         if nearer is not None and np.any(nearer > 0):
             hidden, times = splatter.blur(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
             _add(stats, times)
             known = 1.0 - hidden
-        weight = 1.0 / np.clip(np.maximum(known, alpha), MIN_KNOWN, 1.0)
-        opacity = np.minimum(alpha * weight, 1.0)
+        # the formulas of the module docstring, in place where a full-frame temporary was made
+        weight = np.maximum(known, alpha)
+        np.divide(1.0, np.clip(weight, MIN_KNOWN, 1.0, out=weight), out=weight)
+        opacity = np.minimum(np.multiply(alpha, weight), 1.0)
+        covered = opacity.sum()   # the coverage after re-weighting (before the own-sites bound)
         if per_layer:                                                # something lies behind
             own, times = splatter.blur(np.minimum(sites, 1.0), stats["radius_px"])
             _add(stats, times)
-            opacity = np.maximum(opacity, np.minimum(own / np.clip(known, MIN_KNOWN, 1.0), 1.0))
+            bound = np.clip(known, MIN_KNOWN, 1.0)
+            np.minimum(np.divide(own, bound, out=bound), 1.0, out=bound)
+            np.maximum(opacity, bound, out=opacity)
         out *= (1.0 - opacity)[..., None]   # "over", in place: the same products and sums
         out += colour * weight[..., None]
-        gain = float(np.minimum(alpha * weight, 1.0).sum() / max(float(np.minimum(alpha, 1.0).sum()), 1e-30))
+        gain = float(covered / max(float(np.minimum(alpha, 1.0).sum()), 1e-30))
         per_layer.append(dict(stats, index=index, coverage_gain=gain))
     info = {"edges": edges.tolist(), "layers": per_layer[::-1],
             "device_ms": sum(x["device_ms"] for x in per_layer),
@@ -306,7 +312,7 @@ def _splat_layer(splatter: LayerSplatter, layers, rgba, members):
     c = layers[0].rgb.shape[2]
     parts = [(i, x, m) for i, (x, m) in enumerate(zip(layers, members)) if m.any()]
     images = [rgba[i] * m[..., None] for i, _, m in parts]
-    cocs = [np.where(m > 0, x.coc, 0.0).astype(np.float32) for _, x, m in parts]
+    cocs = [np.where(m > 0, x.coc, np.float32(0.0)).astype(np.float32, copy=False) for _, x, m in parts]
     resolved, times = splatter.splat_layer(images, cocs, [i for i, _, _ in parts])
     radii = [np.abs(k) for k in cocs]
     sites = sum(im[..., c] for im in images)

@@ -276,7 +276,7 @@ class _Spreadlets:
         """The cropped image (the integrated Laplacian plane plus the dense and row planes, which
         the merge kernel summed along their rows) and the integrator's times."""
         p, times = out.pad, {"device_ms": 0.0, "transfer_ms": 0.0}
-        image = None
+        parts = []
         for plane, kind in zip(out.canvas, out.kinds):
             if kind == "laplacian":
                 # an all-zero Laplacian integrates to zero: skip the integration when nothing was splat
@@ -284,14 +284,16 @@ class _Spreadlets:
                     continue
                 full, times = integrate_support(r.integrator, plane, out.laplacian_box) if r.crop_integration \
                     else r.integrator(plane)
-                part = full[p:p + h, p:p + w]
+                parts.append(full[p:p + h, p:p + w])
             else:
-                part = plane[p:p + h, p:p + w]
-            if image is None:
-                image = part.copy()
-            else:
-                image += part
-        return (np.zeros((h, w, out.canvas.shape[-1]), np.float32) if image is None else image), times
+                parts.append(plane[p:p + h, p:p + w])
+        if not parts:
+            return np.zeros((h, w, out.canvas.shape[-1]), np.float32), times
+        # the first two planes summed into a new array (not copied, then added: one full-frame pass less)
+        image = parts[0].copy() if len(parts) == 1 else np.add(parts[0], parts[1])
+        for part in parts[2:]:
+            image += part
+        return image, times
 
 
 class _Splat(_Spreadlets):

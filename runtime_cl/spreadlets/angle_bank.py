@@ -107,7 +107,7 @@ def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
     K = len(cs)
     ys, xs = np.nonzero(np.any(psf != 0, axis=2))
     if not len(ys):
-        return [_EMPTY(ch)] * K
+        return [_empty_entry(ch)] * K
     sx0, sy0 = (xs - r).astype(np.float64), (ys - r).astype(np.float64)
     c, s = cs[:, :1], cs[:, 1:]
     fx, fy = c * sx0 + s * sy0, c * sy0 - s * sx0   # rotate_xy of the non-zero pixels, (K, m)
@@ -149,7 +149,7 @@ def turned_dense(psf: np.ndarray, cs: np.ndarray) -> list:
     return _spans_of(kk, dx, dy, val, K, ch)
 
 
-def _EMPTY(ch: int) -> tuple:
+def _empty_entry(ch: int) -> tuple:
     """An all-zero entry: radius 0, one empty row."""
     return 0, np.zeros((1, 2), np.int32), np.zeros((0, ch), np.float32)
 
@@ -159,7 +159,7 @@ def _spans_of(kk, dx, dy, val, K: int, ch: int) -> list:
     sorted by (kk, dy, dx): each row's span from its first to its last pixel, zeros between."""
     bounds = np.searchsorted(kk, np.arange(K + 1))
     if not len(kk):
-        return [_EMPTY(ch)] * K
+        return [_empty_entry(ch)] * K
     group = np.flatnonzero(np.diff(kk, prepend=-1) | np.diff(dy, prepend=dy[0] - 1))   # (kk, dy) runs
     last = np.append(group[1:], len(kk)) - 1
     first_x, end_x = dx[group], dx[last] + 1
@@ -171,7 +171,7 @@ def _spans_of(kk, dx, dy, val, K: int, ch: int) -> list:
     for a in range(K):
         lo, hi = bounds[a], bounds[a + 1]
         if lo == hi:
-            out.append(_EMPTY(ch))
+            out.append(_empty_entry(ch))
             continue
         radius = int(max(np.abs(dx[lo:hi]).max(), np.abs(dy[lo:hi]).max()))
         g = slice(g_bounds[a], g_bounds[a + 1])
@@ -182,17 +182,16 @@ def _spans_of(kk, dx, dy, val, K: int, ch: int) -> list:
     return out
 
 
-def row_turns(P: np.ndarray, V: np.ndarray) -> tuple:
-    """A row cell's entries at angle 0 and pi: (count, count, P, V), its row differences as
-    stored and half-turned (the half turn's difference at x is minus the stored one's at 1 - x,
-    as ``splat.cl`` draws it per pixel), each sorted by (dy, dx)."""
+def row_turns(P: np.ndarray, V: np.ndarray) -> list:
+    """A row cell's entries at angle 0 and pi: [(P, V) as stored, (P, V) half-turned] (the half
+    turn's difference at x is minus the stored one's at 1 - x, as ``splat.cl`` draws it per
+    pixel), each sorted by (dy, dx)."""
     turned = np.column_stack([1 - P[:, 0].astype(np.int64), -P[:, 1].astype(np.int64)])
-    parts = []
+    out = []
     for p, v in ((P.astype(np.int64), V), (turned, -V)):
         order = np.lexsort((p[:, 0], p[:, 1]))
-        parts.append((p[order], v[order]))
-    return (len(P), len(P), np.concatenate([parts[0][0], parts[1][0]]).astype(np.int16),
-            np.concatenate([parts[0][1], parts[1][1]]).astype(np.float32))
+        out.append((p[order].astype(np.int16), v[order].astype(np.float32)))
+    return out
 
 
 def _with_row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, cnt, pts, vals, dense: list,
@@ -208,9 +207,8 @@ def _with_row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, cnt, pts, v
         kinds[0] = kinds[half] = KIND_DENSE
         per[0] = per[half] = (np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32))
     else:
-        n0, _, P, V = row_turns(*db.row_spreadlets(i))
-        per[0], per[half] = (P[:n0], V[:n0]), (P[n0:], V[n0:])
-        dense[0] = dense[half] = _EMPTY(ch)
+        per[0], per[half] = row_turns(*db.row_spreadlets(i))
+        dense[0] = dense[half] = _empty_entry(ch)
         kinds[0] = kinds[half] = KIND_ROWS
     counts = np.array([len(p) for p, _ in per], np.int64)
     return counts, np.concatenate([p for p, _ in per]), np.concatenate([v for _, v in per])
@@ -285,7 +283,7 @@ class AngleBank:
                 pts, vals = np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32)
             else:
                 cnt, pts, vals = turned_spreadlets(p, v, cs)
-                dense = [_EMPTY(ch)] * K
+                dense = [_empty_entry(ch)] * K
                 entry_kinds = [KIND_LAPLACIAN] * K
             if dual_rows is not None and dual_rows[i]:   # angles 0 and pi: the row differences, as the kernel draws them
                 cnt, pts, vals = _with_row_entries(db, i, cs, cnt, pts, vals, dense, entry_kinds)

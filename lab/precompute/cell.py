@@ -64,9 +64,8 @@ def build_cell(model, cell: int) -> dict:
     traced = model.trace_checked(cell, seed=cfg.seed)
     t1 = time.perf_counter()
     psf = traced.psf
-    bases = ("laplacian", "rows") if model.basis == "dual" else (model.basis,)
     fits = [sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced),
-                     basis=basis) for basis in bases]
+                     basis=basis) for basis in model.fitted_bases]
     t2 = time.perf_counter()
     energy = model.energy(traced)
     # sparsified normalised (its thresholds are tuned so), then scaled: the Laplacian, the row

@@ -147,16 +147,17 @@ class SpreadletDatabase:
         self.dense_offsets = _cast("dense_offsets", self.dense_offsets, np.int64, (n + 1,))
         self.dense_values = _cast("dense_values", self.dense_values, np.float32,
                                   (int(self.dense_offsets[-1]), ch))
-        rows = [getattr(self, name) is not None for name, _ in ROW_ARRAYS]
-        if any(rows) != (self.basis == "dual") or not (all(rows) or not any(rows)):
+        dual = self.basis == "dual"
+        given = sum(getattr(self, name) is not None for name, _ in ROW_ARRAYS)
+        if given != (len(ROW_ARRAYS) if dual else 0):
             raise InputError(f"database arrays {[name for name, _ in ROW_ARRAYS]}: needed by basis 'dual' "
-                             f"and by no other; basis {self.basis!r} has {sum(rows)} of them; {REBUILD}")
-        if self.basis == "dual":
+                             f"and by no other; basis {self.basis!r} has {given} of them; {REBUILD}")
+        if dual:
             self.row_C = _cast("row_C", self.row_C, np.int64, (n + 1,))
             self.row_P = _cast("row_P", self.row_P, np.int16, (int(self.row_C[-1]), 2))
             self.row_V = _cast("row_V", self.row_V, np.float32, (int(self.row_C[-1]), ch))
             self.row_fast = _cast("row_fast", self.row_fast, np.bool_, (n,))
-        for name in ("C", "row_C") if self.basis == "dual" else ("C",):
+        for name in ("C", "row_C") if dual else ("C",):
             c = getattr(self, name)
             if c[0] != 0 or np.any(np.diff(c) < 0):
                 raise InputError(f"database array {name}: must start at 0 and never decrease")
@@ -166,7 +167,7 @@ class SpreadletDatabase:
         if self.dense_offsets[0] != 0 or np.any(np.diff(self.dense_offsets) != sizes):
             raise InputError("database array dense_offsets: must be the cumulative sum of "
                              "(2 dense_radius + 1)^2 starting at 0")
-        for name in ("V", "dense_values", "row_V") if self.basis == "dual" else ("V", "dense_values"):
+        for name in ("V", "dense_values", "row_V") if dual else ("V", "dense_values"):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise InputError(f"database array {name}: contains NaN or infinity")
         missing = [s for s in REQUIRED_STATS if s not in self.stats]

@@ -13,37 +13,41 @@ from runtime_cl.psf.grid_cl import PsfSpaceTables
 KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS = 0, 1, 2
 
 
-def cell_kinds(db: SpreadletDatabase) -> np.ndarray:
+def cell_kinds(db: SpreadletDatabase, rows: np.ndarray | None = None) -> np.ndarray:
     """uint8 :data:`KIND_DENSE` for a fast-tracked cell, else the kind of its spreadlets: (n,), or
     (2n,) for a ``"dual"`` database (its cells turned by other than 0 or pi, then the same cells at
-    0 and pi: their row differences where :func:`half_turn_rows` says, else their Laplacian)."""
+    0 and pi: their row differences where ``rows`` (default :func:`half_turn_rows`) says, else
+    their Laplacian)."""
     kinds = np.where(db.fast_track, KIND_DENSE, KIND_ROWS if db.basis == "rows" else KIND_LAPLACIAN)
     if db.basis == "dual":
-        kinds = np.concatenate([kinds, np.where(half_turn_rows(db), np.where(db.row_fast, KIND_DENSE, KIND_ROWS),
-                                                kinds)])
+        rows = half_turn_rows(db) if rows is None else rows
+        kinds = np.concatenate([kinds, np.where(rows, np.where(db.row_fast, KIND_DENSE, KIND_ROWS), kinds)])
     return kinds.astype(np.uint8)
 
 
-def half_turn_rows(db: SpreadletDatabase) -> np.ndarray:
+def half_turn_rows(db: SpreadletDatabase, dense_n: np.ndarray | None = None) -> np.ndarray:
     """(n,) bool: the cells of a ``"dual"`` database drawn from their row differences at 0 and pi,
     those whose row differences cost fewer adds than their Laplacian (either's dense PSF when it
     is fast-tracked). A still disc's rim is 2 terms per row against its Laplacian's 3-pixel-wide
     outline; a moving capsule's rows are long ramps (fewer shutter times cover its ends), each
-    pixel a difference, where its Laplacian is zero."""
-    dense = dense_row_spans(db)[2]
+    pixel a difference, where its Laplacian is zero. ``dense_n``: each dense PSF's pixels inside
+    its row spans (default: :func:`dense_row_spans`'s)."""
+    dense = dense_row_spans(db)[2] if dense_n is None else dense_n
     rows = np.where(db.row_fast, dense, np.diff(db.row_C))
     return rows < np.where(db.fast_track, dense, np.diff(db.C))
 
 
-def device_spreadlets(db: SpreadletDatabase) -> tuple:
+def device_spreadlets(db: SpreadletDatabase, rows: np.ndarray | None = None) -> tuple:
     """(C, P, V) as the device holds them: each cell's spreadlets sorted by (dy, dx)
     (:func:`row_major_order`); a ``"dual"`` database's cells at 0 and pi follow as cells
-    n .. 2n - 1 (C of length 2n + 1): row differences or Laplacian (:func:`half_turn_rows`)."""
+    n .. 2n - 1 (C of length 2n + 1): row differences where ``rows`` (default
+    :func:`half_turn_rows`) says, else Laplacian."""
     order = row_major_order(db.C, db.P)
     C, P, V = db.C, db.P[order], db.V[order]
     if db.basis != "dual":
         return C, P, V
-    rows, row_order = half_turn_rows(db), row_major_order(db.row_C, db.row_P)
+    rows = half_turn_rows(db) if rows is None else rows
+    row_order = row_major_order(db.row_C, db.row_P)
     rP, rV = db.row_P[row_order], db.row_V[row_order]
     parts = [(rP[db.row_C[i]:db.row_C[i + 1]], rV[db.row_C[i]:db.row_C[i + 1]]) if rows[i]
              else (P[C[i]:C[i + 1]], V[C[i]:C[i + 1]]) for i in range(db.n_samples)]
@@ -123,9 +127,11 @@ class DeviceDatabase:
     ----------
     buffers : dict of str -> pyopencl.Buffer
         ``C, P, V, fast, dense_r, dense_off, dense_v, span_off, span, dense_n, dense_box,
-        dense_sum, psf_thr, psf_bucket`` (``fast``: :func:`cell_kinds`; ``span*``, ``dense_n``: :func:`dense_row_spans`;
+        dense_sum, psf_thr, psf_bucket`` (``fast``: :attr:`kinds`; ``span*``, ``dense_n``: :func:`dense_row_spans`;
         ``dense_box``: :func:`dense_boxes`; ``dense_sum``: each dense PSF's sum per channel, the
         energy a turned PSF keeps).
+    kinds : ndarray, uint8
+        Each device cell's kind (:func:`cell_kinds`), the ``fast`` buffer's host copy.
     options : list of str
         ``-D`` options every kernel reading this database needs (PSF space, DC, PAD).
     base_options : list of str
@@ -142,10 +148,12 @@ class DeviceDatabase:
         self.fp64 = self.device.fp64
         self.tables = PsfSpaceTables(db.grid, self.fp64)
         ctx, q = self.device.context, self.device.queue
-        C, P, V = device_spreadlets(db)
         span_off, span, dense_n = dense_row_spans(db)
+        rows = half_turn_rows(db, dense_n) if db.basis == "dual" else None
+        C, P, V = device_spreadlets(db, rows)
+        self.kinds = cell_kinds(db, rows)
         host = {
-            "C": C, "P": P, "V": V, "fast": cell_kinds(db),
+            "C": C, "P": P, "V": V, "fast": self.kinds,
             "dense_r": db.dense_radius, "dense_off": db.dense_offsets, "dense_v": db.dense_values,
             "span_off": span_off, "span": span, "dense_n": dense_n,
             "dense_box": dense_boxes(db, span_off, span),

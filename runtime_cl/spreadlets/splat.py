@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from runtime_cl.device.opencl import event_ms
-from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, DeviceDatabase, cell_kinds
+from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, DeviceDatabase
 from runtime_cl.spreadlets.angle_bank import AngleBank
 from runtime_cl.errors import InputError
 from runtime_cl.integrate.poisson import fft_friendly
@@ -175,7 +175,7 @@ class TileSplatter:
             raise InputError(f"database {ddb.db.model!r} stores row differences (basis 'rows'), which turn "
                              "by 180 degrees only; rebuild it with basis = 'laplacian' to turn its PSFs by any angle")
         turns = self.rotate and self.bank is None   # the kernel turns PSFs per pixel (rotate.cl)
-        self.kinds = self._kinds(turns)
+        self.kinds = self._kinds()
         self.pad = ddb.db.rotated_pad if self.rotate and not self.half_turns else ddb.db.pad
         if self.bank is not None:
             self.pad = self.bank.pad
@@ -206,13 +206,14 @@ class TileSplatter:
         """Canvas planes (:attr:`SplatOutput.kinds`)."""
         return len(self.kinds)
 
-    def _kinds(self, turns: bool) -> tuple:
-        """The planes this splatter's frames draw into (:attr:`SplatOutput.kinds`)."""
+    def _kinds(self) -> tuple:
+        """The planes this splatter's frames draw into (:attr:`SplatOutput.kinds`): those of the
+        kinds its cells (or bank entries) have."""
         if self.dense_all:
             return ("dense",)
-        kinds = self.bank.fast if self.bank is not None else cell_kinds(self.ddb.db)
-        has = {kind: bool(np.any(kinds == code)) for kind, code in zip(KINDS, (KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS))}
-        return tuple(kind for kind in KINDS if has[kind])
+        kinds = self.bank.fast if self.bank is not None else self.ddb.kinds
+        codes = (KIND_LAPLACIAN, KIND_DENSE, KIND_ROWS)
+        return tuple(kind for kind, code in zip(KINDS, codes) if np.any(kinds == code))
 
     def _upload_bank(self) -> dict:
         """The bank's arrays on the device, under the database buffers' names they replace."""

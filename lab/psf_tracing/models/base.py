@@ -126,6 +126,12 @@ class PSFModel(abc.ABC):
         PSFs turn by any angle: row differences can only be drawn as stored or half-turned)."""
         return getattr(self.config, "basis", "laplacian")
 
+    @property
+    def fitted_bases(self) -> tuple:
+        """The bases :func:`lab.sparsify.spreadlets.sparsify` fits to every cell: :attr:`basis`, or
+        for ``"dual"`` the Laplacian and then the row differences."""
+        return ("laplacian", "rows") if self.basis == "dual" else (self.basis,)
+
     def fingerprint(self) -> dict:
         """What a labelled image's ``splatlab.camera`` header must say for this model's database to
         match it: header key -> the value traced (checked by :func:`runtime_cl.psf.fingerprint.

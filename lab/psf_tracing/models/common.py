@@ -211,6 +211,6 @@ class BasisKeys:
 
     basis: str = "rows"
 
-    def check_basis(self, bases=("laplacian", "rows")) -> None:
-        if self.basis not in bases:
-            raise UserError(f"basis = {self.basis!r}: choose one of {list(bases)}")
+    def check_basis(self) -> None:
+        if self.basis not in ("laplacian", "rows"):
+            raise UserError(f"basis = {self.basis!r}: choose one of ['laplacian', 'rows']")

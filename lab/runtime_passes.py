@@ -20,6 +20,7 @@ from .errors import UserError
 from .motion import read_motion
 
 TIMED_RUNS = 3
+TIMED_MIN_MS = 300.0   # a few-millisecond pass (the tiny scenes) is timed until its calls add up to this
 
 
 def frame_of(image, source: str = "input", db=None, layered_input: bool = False,
@@ -69,7 +70,8 @@ def aperture_info(aperture) -> dict:
             "table_s": round(aperture.splatter.table.build_seconds, 3)}
 
 
-def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: bool = True) -> dict:
+def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, min_ms: float = TIMED_MIN_MS,
+                progress: bool = True) -> dict:
     """Every runtime pass of the plan on ``image``: report label -> (image, timing dict).
 
     ``databases``: model name -> :class:`lab.precompute.PrecomputeResult` (what the plan built).
@@ -104,7 +106,7 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, progress: 
             frame = frame_of(image, db=db, layered_input=options.get("layered_input", False),
                              stochastic="lens.U" in cls.channels)
             extra = {"far_field": far} if far is not None and cls.far_field and db.model == "volume" else {}
-            rendered, timing = run_pass(name, frame, camera, db, runs=runs, **options, **extra)
+            rendered, timing = run_pass(name, frame, camera, db, runs=runs, min_ms=min_ms, **options, **extra)
             entry = dict(timing.to_json(), **{"pass": name})
             if cls.draws_aperture and aperture is not None:
                 entry["aperture"] = aperture_info(aperture)

@@ -31,7 +31,7 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 
-__all__ = ["CallTimes", "Timing", "COLUMNS", "measure"]
+__all__ = ["CallTimes", "Timing", "COLUMNS", "MAX_RUNS", "measure"]
 
 # What each Timing figure means, for reports and --help.
 COLUMNS = {
@@ -79,7 +79,10 @@ def _check_runs(runs) -> int:
     return int(runs)
 
 
-def measure(call, runs: int = 3, prepare_ms: float = 0.0, build_ms: float = 0.0):
+MAX_RUNS = 200   # the most timed calls ``min_ms`` adds
+
+
+def measure(call, runs: int = 3, prepare_ms: float = 0.0, build_ms: float = 0.0, min_ms: float = 0.0):
     """Warm up with one call of ``call()``, then time ``runs`` calls; ``(first image, Timing)``.
 
     Parameters
@@ -93,6 +96,10 @@ def measure(call, runs: int = 3, prepare_ms: float = 0.0, build_ms: float = 0.0)
         Recorded as :attr:`Timing.prepare_ms`.
     build_ms : float, default 0
         Set-up before the first call (building the pass), added to :attr:`Timing.compile_ms`.
+    min_ms : float, default 0
+        With ``runs`` > 0, more calls are timed until they add up to ``min_ms`` (at most
+        ``MAX_RUNS``): a median of a few-millisecond call over three runs is at the mercy of one
+        burst of load on a shared machine, a median over a hundred is not.
 
     Returns
     -------
@@ -111,7 +118,7 @@ def measure(call, runs: int = 3, prepare_ms: float = 0.0, build_ms: float = 0.0)
                              compile_ms=build_ms, prepare_ms=float(prepare_ms), runs=0,
                              counts=dict(first.counts))
     walls, device, transfer = [], [], []
-    for _ in range(runs):
+    while len(walls) < runs or (sum(walls) < min_ms and len(walls) < MAX_RUNS):
         start = time.perf_counter()
         _, times = call()
         walls.append((time.perf_counter() - start) * 1e3)
@@ -121,5 +128,5 @@ def measure(call, runs: int = 3, prepare_ms: float = 0.0, build_ms: float = 0.0)
     host = float(np.median([max(0.0, w - d - t) for w, d, t in zip(walls, device, transfer)]))
     return image, Timing(time_ms=wall, device_ms=float(np.median(device)),
                          transfer_ms=float(np.median(transfer)), host_ms=host,
-                         compile_ms=build_ms + max(0.0, warm_ms - wall), prepare_ms=float(prepare_ms), runs=runs,
+                         compile_ms=build_ms + max(0.0, warm_ms - wall), prepare_ms=float(prepare_ms), runs=len(walls),
                          counts=dict(first.counts))

@@ -15,6 +15,7 @@ from .insets import write_insets
 from .pareto import front_sentence
 from .sweep_plots import accuracy_time_plot
 from .regress import compare
+from ..runtime_passes import TIMED_MIN_MS, TIMED_RUNS
 
 ERROR_SCALE = 4.0  # error maps show 4 x |difference| so small errors are visible
 
@@ -92,7 +93,8 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
         "tonemap": TONEMAP,
         "metrics": "SSIM: skimage structural_similarity, gaussian sigma 1.5, data_range 1, channel_axis 2; "
                    "PSNR data_range 1; both on the tonemap",
-        "timing": dict(COLUMNS, runs="timed calls after one warm-up call; every figure is their median"),
+        "timing": dict(COLUMNS, runs=f"timed calls after one warm-up call (at least {TIMED_RUNS}, more until they add up to "
+                                    f"{TIMED_MIN_MS:.0f} ms); every figure is their median"),
         "images": ({"reference": "reference.png"} if reference is not None else {}) | {"input (pinhole)": "input.png"},
         "plots": plots,
         "insets": write_insets(reference, rgbs, out_dir) if rgbs and reference is not None else None,

@@ -149,11 +149,12 @@ def get_pass(name: str) -> type:
     return _PASSES.get(name)
 
 
-def run_pass(name: str, frame, camera, db=None, *, runs: int = 0, layers: int = 1, device=None,
-             **options):
+def run_pass(name: str, frame, camera, db=None, *, runs: int = 0, min_ms: float = 0.0, layers: int = 1,
+             device=None, **options):
     """Render ``frame`` with the pass ``name`` and time it (:func:`runtime_cl.timing.measure`).
 
-    Returns ``(image, Timing)``; ``runs`` timed calls follow one warm-up call (0: one call). The
+    Returns ``(image, Timing)``; ``runs`` timed calls (more until they add up to ``min_ms``) follow
+    one warm-up call (0: one call). The
     image is the frame: a guard band (``frame.guard_px``) is rendered, timed and cropped off.
     """
     start = time.perf_counter()
@@ -162,5 +163,5 @@ def run_pass(name: str, frame, camera, db=None, *, runs: int = 0, layers: int = 
     start = time.perf_counter()
     prepared = p.prepare(frame)
     prepare_ms = (time.perf_counter() - start) * 1e3
-    image, timing = measure(lambda: p(prepared), runs, prepare_ms, build_ms)
+    image, timing = measure(lambda: p(prepared), runs, prepare_ms, build_ms, min_ms)
     return frame.crop(image), timing

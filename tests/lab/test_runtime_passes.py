@@ -35,7 +35,7 @@ def test_every_label_runs_its_pass_with_its_options(image, tmp_path):
     plan = _plan(("spreadlets", "polygon", "polygon_layers", "identity"),
                  {"polygon_layers": ("polygon", {"layers": 3})})
     out = run_runtime(plan, image, {"simple_lens": SimpleNamespace(path=tmp_path / "disc.spdb")},
-                      runs=1, progress=False)
+                      runs=1, min_ms=0.0, progress=False)
     assert list(out) == list(plan.runtime_passes)
     for label, (rendered, timing) in out.items():
         assert rendered.shape[:2] == image.depth.shape and set(COLUMNS) <= set(timing), label

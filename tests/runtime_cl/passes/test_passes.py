@@ -15,7 +15,7 @@ from runtime_cl.polygon.layers import PolygonLayerSplatter
 from runtime_cl.polygon.splat import PolygonSplatter
 from runtime_cl.psf.synthetic import disc_database
 from runtime_cl.spreadlets.renderer import Renderer
-from runtime_cl.timing import COLUMNS, CallTimes, Timing, measure
+from runtime_cl.timing import COLUMNS, MAX_RUNS, CallTimes, Timing, measure
 
 CAMERA = ThinLens(focal_length_mm=50.0, f_number=2.0, focus_distance_m=0.5)
 
@@ -109,3 +109,14 @@ def test_measure_takes_medians_after_a_warm_up():
     assert len(calls) == 1 and t.runs == 0 and t.host_ms == 0.0     # device time above the wall: clamped
     with pytest.raises(InputError, match="runs = -1"):
         measure(call, runs=-1)
+
+
+def test_measure_times_short_calls_until_they_add_up_to_min_ms():
+    call, calls = _timed_call(0.0, 0.01)
+    _, t = measure(call, runs=3, min_ms=100.0)
+    assert 4 <= t.runs <= 10 and len(calls) == t.runs + 1       # >= 10 ms calls until >= 100 ms
+    call, calls = _timed_call(0.0, 0.0)
+    _, t = measure(call, runs=3, min_ms=1e9)
+    assert t.runs == MAX_RUNS                                     # never more than MAX_RUNS
+    _, t = measure(call, runs=0, min_ms=1e9)
+    assert t.runs == 0                                            # one call, no warm-up: min_ms unused

@@ -132,6 +132,8 @@ class DeviceDatabase:
         energy a turned PSF keeps).
     kinds : ndarray, uint8
         Each device cell's kind (:func:`cell_kinds`), the ``fast`` buffer's host copy.
+    dense_n : ndarray, int64
+        Each dense PSF's pixels inside its row spans (:func:`dense_row_spans`), host copy.
     options : list of str
         ``-D`` options every kernel reading this database needs (PSF space, DC, PAD).
     base_options : list of str
@@ -149,6 +151,7 @@ class DeviceDatabase:
         self.tables = PsfSpaceTables(db.grid, self.fp64)
         ctx, q = self.device.context, self.device.queue
         span_off, span, dense_n = dense_row_spans(db)
+        self.dense_n = dense_n
         rows = half_turn_rows(db, dense_n) if db.basis == "dual" else None
         C, P, V = device_spreadlets(db, rows)
         self.kinds = cell_kinds(db, rows)

@@ -31,9 +31,10 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
-from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, half_turn_rows
+from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, dense_row_spans, half_turn_rows
 
-__all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_cells", "turned_dense", "turned_spreadlets"]
+__all__ = ["ANGLE_ERROR_PX", "LAPLACIAN_PLANE_ADDS", "AngleBank", "angles_for_reach", "bank_needs", "turned_dense",
+           "turned_spreadlets"]
 
 # Largest displacement (px) of a PSF's farthest point by the angle rounding; see the module docstring
 # and README ("Where a spreadlet frame's time goes") for the SSIM it costs on whirl. At 0.5 px the
@@ -42,6 +43,10 @@ __all__ = ["ANGLE_ERROR_PX", "AngleBank", "angles_for_reach", "turned_cells", "t
 # below its 0.995 floor; 0.25 px passes it.
 ANGLE_ERROR_PX = 0.25
 MAX_ANGLES = 1024   # bounds the bank's size (a PSF reaching 80 px at 0.25 px)
+# What a frame's Laplacian plane costs per pixel of its box (merge and crop integration), in
+# spreadlet adds: on whirl (1024^2, 2-core PoCL) its ~1.1 M px box cost 40-50 ms of merge and
+# fft32 integration, ~45 ns/px, against ~0.5 ns per add in the splat kernel.
+LAPLACIAN_PLANE_ADDS = 80.0
 
 
 def angles_for_reach(reach_px: float, error_px: float) -> int:
@@ -214,16 +219,58 @@ def _with_row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, cnt, pts, v
     return counts, np.concatenate([p for p, _ in per]), np.concatenate([v for _, v in per])
 
 
-def turned_cells(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """(n,) bool: the cells of the lit pixels whose angle is no multiple of 90 degrees (the
-    turns :class:`AngleBank` must hold at every angle; ``rotation_cs``'s 2^-19 rad tolerance)."""
-    a = np.fmod(angle.astype(np.float64), 2.0 * math.pi)
-    off = np.abs(a - np.rint(a / (0.5 * math.pi)) * (0.5 * math.pi)) > 2.0 ** -19
-    lit = np.any(colour != 0, axis=2) & off
-    out = np.zeros(db.n_samples, bool)
-    if lit.any():
-        out[np.unique(db.grid.index(np.asarray(coords[lit], np.float64)))] = True
-    return out
+def _half_turn_rows(db: SpreadletDatabase, dense_n: np.ndarray, laplacian: bool) -> np.ndarray:
+    """(n,) bool: the cells whose bank entries at 0 and pi are a ``"dual"`` database's row
+    differences: those the kernel draws so per pixel (:func:`half_turn_rows`), and without
+    Laplacian entries also every other cell whose rows cost fewer adds than its dense PSF."""
+    if db.basis != "dual":
+        return np.zeros(db.n_samples, bool)
+    rows = half_turn_rows(db, dense_n)
+    if not laplacian:
+        rows |= ~db.fast_track & ~db.row_fast & (np.diff(db.row_C) < dense_n)
+    return rows
+
+
+def bank_needs(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, angle: np.ndarray,
+               dense_n: np.ndarray | None = None) -> tuple:
+    """What an :class:`AngleBank` must hold to draw this frame: ``(cells, laplacian)``.
+
+    ``cells`` (n,) bool: the cells of the lit pixels whose angle is no multiple of 90 degrees
+    (the turns the bank must hold at every angle; ``rotation_cs``'s 2^-19 rad tolerance).
+    ``laplacian``: whether the frame is cheaper with Laplacian entries than without them. Without,
+    each pixel that would draw Laplacian spreadlets draws its dense PSF (or, at 0 and pi, its row
+    differences) instead, at ``extra`` more adds, but the frame has no Laplacian plane to merge and
+    integrate: dropped when ``extra`` < :data:`LAPLACIAN_PLANE_ADDS` x the box of those pixels
+    widened by the database's reach. On whirl a horizontally sliding capsule is the only
+    Laplacian left (its rows are ramps: 857 row differences against 247 Laplacian spreadlets),
+    +22 M adds against a 1.1 M px box. ``dense_n``: each dense PSF's pixels in its row spans
+    (default :func:`~runtime_cl.psf.upload.dense_row_spans`'s).
+    """
+    lit = np.any(colour != 0, axis=2)
+    cells = np.zeros(db.n_samples, bool)
+    if not lit.any():
+        return cells, False
+    a = np.fmod(angle[lit].astype(np.float64), 2.0 * math.pi)
+    quarter = np.rint(a / (0.5 * math.pi))
+    off = np.abs(a - quarter * (0.5 * math.pi)) > 2.0 ** -19
+    cell = db.grid.index(np.asarray(coords[lit], np.float64))
+    cells[np.unique(cell[off])] = True
+    dense_n = dense_row_spans(db)[2] if dense_n is None else dense_n
+    half = ~off & (quarter.astype(np.int64) % 2 == 0)
+    half_rows = _half_turn_rows(db, dense_n, True)
+    lap = ~db.fast_track[cell] & ~(half & half_rows[cell])
+    if not lap.any():
+        return cells, False
+    c = cell[lap]
+    instead = dense_n[c]
+    if db.basis == "dual":   # at 0 and pi the cheaper of rows and dense (_half_turn_rows without Laplacian)
+        rows = np.where(db.row_fast[c], dense_n[c], np.minimum(np.diff(db.row_C)[c], dense_n[c]))
+        instead = np.where(half[lap], rows, instead)
+    extra = float(np.sum(instead - np.diff(db.C)[c]))
+    ys, xs = np.nonzero(lit)
+    ys, xs = ys[lap], xs[lap]
+    box = float((ys.max() - ys.min() + 1 + 2 * db.pad) * (xs.max() - xs.min() + 1 + 2 * db.pad))
+    return cells, extra >= LAPLACIAN_PLANE_ADDS * box
 
 
 class AngleBank:
@@ -250,22 +297,30 @@ class AngleBank:
         for angles that are multiples of 90 degrees, e.g. the ``coc_sign`` symmetry's 0 and
         pi). Default: every cell. The :class:`~runtime_cl.spreadlets.renderer.Renderer` passes
         the cells its frames turn by other angles, so a bank holds what is drawn.
+    laplacian : bool, default True
+        False: no entry is Laplacian spreadlets, so a frame drawn from the bank has no Laplacian
+        plane to merge and integrate (:func:`keeps_laplacian` says when that is cheaper): a cell
+        that is not fast-tracked holds its dense PSF turned, and at angles 0 and pi its row
+        differences where they cost less (a ``"dual"`` database).
     """
 
-    def __init__(self, db: SpreadletDatabase, angle_error_px: float = ANGLE_ERROR_PX, cells=None):
+    def __init__(self, db: SpreadletDatabase, angle_error_px: float = ANGLE_ERROR_PX, cells=None,
+                 laplacian: bool = True):
         if isinstance(angle_error_px, bool) or not (isinstance(angle_error_px, (int, float))
                                                     and 0.01 <= angle_error_px <= 10.0):
             raise InputError(f"angle_error_px = {angle_error_px!r}: must be a number in [0.01, 10] px "
                              "(the largest displacement of a PSF point by the angle rounding)")
         self.angle_error_px = float(angle_error_px)
+        self.laplacian = bool(laplacian)
         n, ch = db.n_samples, db.channels
         self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
         k_of = np.zeros(n, np.int32)
         P_parts, V_parts, counts, fast, dense_parts = [], [], [], [], []
-        dual_rows = half_turn_rows(db) if db.basis == "dual" else None
+        dense_n = dense_row_spans(db)[2]
+        half_rows = _half_turn_rows(db, dense_n, laplacian)
         for i in range(n):
-            is_fast = bool(db.fast_track[i])
-            if is_fast:
+            is_dense = bool(db.fast_track[i]) or not laplacian
+            if is_dense:
                 psf = db.dense_psf(i)
                 # the crop's corner (its turned reach), not its farthest non-zero pixel: that
                 # tighter bound halved K and fell below the brute-force check's SSIM floor (0.9942)
@@ -276,7 +331,7 @@ class AngleBank:
             K = angles_for_reach(reach, self.angle_error_px) if self.cells[i] else 4
             k_of[i] = K
             cs = np.array([bank_cs(k, K) for k in range(K)])
-            if is_fast:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array
+            if is_dense:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array
                 dense = [d for a in range(0, K, 64) for d in turned_dense(psf, cs[a:a + 64])]
                 entry_kinds = [KIND_DENSE] * K
                 cnt = np.zeros(K, np.int64)
@@ -285,7 +340,7 @@ class AngleBank:
                 cnt, pts, vals = turned_spreadlets(p, v, cs)
                 dense = [_empty_entry(ch)] * K
                 entry_kinds = [KIND_LAPLACIAN] * K
-            if dual_rows is not None and dual_rows[i]:   # angles 0 and pi: the row differences, as the kernel draws them
+            if half_rows[i]:   # angles 0 and pi: the row differences, as the kernel draws them
                 cnt, pts, vals = _with_row_entries(db, i, cs, cnt, pts, vals, dense, entry_kinds)
             P_parts.append(pts)
             V_parts.append(vals)

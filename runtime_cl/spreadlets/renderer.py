@@ -27,7 +27,7 @@ from runtime_cl.spreadlets.highlights import HDR_RATIO, bright_pixels, splat_hig
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
 from runtime_cl.psf.grid_cl import check_coords
-from runtime_cl.spreadlets.angle_bank import AngleBank, turned_cells
+from runtime_cl.spreadlets.angle_bank import AngleBank, bank_needs
 from runtime_cl.spreadlets.splat import DEFAULT_SPREADLET_ROTATION, RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
 
 
@@ -108,16 +108,19 @@ class Renderer:
     def grow_bank(self, colour, coords, angle) -> None:
         """With ``spreadlet_rotation="bank"``: rebuild the bank (and drop the splatters holding
         it) when this frame (float32 arrays as :meth:`render` takes them) turns cells by angles
-        the bank lacks; it holds the union of every frame's turned cells. :meth:`render` calls it
-        unless told the caller did (``bank_checked``): it is per-pixel work (~80 ms at 1024^2)."""
+        the bank lacks, or is cheaper with(out) Laplacian entries than the bank has
+        (:func:`~runtime_cl.spreadlets.angle_bank.bank_needs`); it holds the union of every
+        frame's turned cells. :meth:`render` calls it unless told the caller did
+        (``bank_checked``): it is per-pixel work (~100 ms at 1024^2)."""
         if self.spreadlet_rotation != "bank" or self.rotation_invariant:
             return
-        need = turned_cells(self.db, colour, coords, angle)
-        if self._bank is not None and not np.any(need & ~self._bank.cells):
+        need, laplacian = bank_needs(self.db, colour, coords, angle, self.ddb.dense_n)
+        bank = self._bank
+        if bank is not None and not np.any(need & ~bank.cells) and bank.laplacian == laplacian:
             return
-        if self._bank is not None:
-            need |= self._bank.cells
-        self._bank = AngleBank(self.db, cells=need)
+        if bank is not None:
+            need |= bank.cells
+        self._bank = AngleBank(self.db, cells=need, laplacian=laplacian)
         self._wrappers = {k: v for k, v in self._wrappers.items() if getattr(v, "bank", None) is None}
 
     def _wrapper(self, method: str, channels: int, rotate: bool, half: bool = False):

@@ -86,14 +86,16 @@ def test_bank_angles_match_the_per_pixel_turn_canvas():
 @pytest.mark.parametrize("fast", [False, True])
 def test_other_angles_take_the_nearest_bank_angle(fast):
     db = capsule_database(radius=3.0, length=12.0, fast=fast, skew=0.6)
-    K = int(AngleBank(db).angles[0])
     colour, coords = scattered(db, seed=2)
     rng = np.random.default_rng(3)
     angle = rng.uniform(-np.pi, np.pi, colour.shape[:2]).astype(np.float32)
-    nearest = (2 * np.pi * np.rint(angle.astype(np.float64) * K / (2 * np.pi)) / K).astype(np.float32)
     renderer = Renderer(db, spreadlet_rotation="bank")
     image, _ = renderer.render(colour, coords, "spreadlets", angle=angle)
+    bank = renderer._bank
+    K = int(bank.angles[0])
+    nearest = (2 * np.pi * np.rint(angle.astype(np.float64) * K / (2 * np.pi)) / K).astype(np.float32)
     want, _ = renderer.render(colour, coords, "spreadlets", angle=nearest)
+    assert renderer._bank is bank
     np.testing.assert_array_equal(image, want)
 
 

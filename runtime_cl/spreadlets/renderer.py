@@ -276,8 +276,8 @@ class _Spreadlets:
 
     @staticmethod
     def image(r: Renderer, out, h: int, w: int) -> tuple:
-        """The cropped image (the integrated Laplacian plane plus the dense and row planes, which
-        the merge kernel summed along their rows) and the integrator's times."""
+        """The cropped image (the integrated Laplacian plane plus the image plane, the dense and
+        row planes the merge kernel summed) and the integrator's times."""
         p, times = out.pad, {"device_ms": 0.0, "transfer_ms": 0.0}
         parts = []
         for plane, kind in zip(out.canvas, out.kinds):
@@ -292,11 +292,8 @@ class _Spreadlets:
                 parts.append(plane[p:p + h, p:p + w])
         if not parts:
             return np.zeros((h, w, out.canvas.shape[-1]), np.float32), times
-        # the first two planes summed into a new array (not copied, then added: one full-frame pass less)
-        image = parts[0].copy() if len(parts) == 1 else np.add(parts[0], parts[1])
-        for part in parts[2:]:
-            image += part
-        return image, times
+        # two planes summed into a new array (not copied, then added: one full-frame pass less)
+        return (parts[0].copy() if len(parts) == 1 else np.add(parts[0], parts[1])), times
 
 
 class _Splat(_Spreadlets):

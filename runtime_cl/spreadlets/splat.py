@@ -26,7 +26,8 @@ from runtime_cl.integrate.poisson import fft_friendly
 # 1196 (16), 774 (32), 684 (64), 613 (128); demo database: 1179 (32), 1021 (64), 770 (128).
 RUN_MAX = 128
 SPREADLET_ROTATIONS = ("bilinear", "nearest", "bank")
-# The canvas planes a splat pass can draw (SplatOutput.kinds), in plane order
+# The tile planes a splat pass can draw (TileSplatter.kinds), in plane order; the merge sums the
+# dense and row planes into one canvas plane, "image" (SplatOutput.kinds)
 KINDS = ("laplacian", "dense", "rows")
 # What the Renderer and the spreadlet passes use. "bank" (runtime_cl/spreadlets/angle_bank.py) is
 # opt-in: on whirl's database it holds 160 k turned PSFs at 0.25 px (every cell; a frame's own
@@ -41,13 +42,13 @@ class SplatOutput:
 
     Attributes
     ----------
-    canvas : ndarray, float32, (groups, Hc, Wc, OC)
+    canvas : ndarray, float32, (planes, Hc, Wc, OC)
         One plane per entry of ``kinds``. Input pixel (x, y) sits at canvas (x + pad, y + pad).
         A view of the splatter's host buffer: valid until its next :meth:`TileSplatter.run`.
     kinds : tuple of str
-        What each plane holds: ``"laplacian"`` (Laplacian spreadlets, to integrate), ``"dense"``
-        (dense PSFs: the Splat baseline's image, or the fast track) and
-        ``"rows"`` (row differences, already summed along the rows: image). In that order.
+        What each plane holds: ``"laplacian"`` (Laplacian spreadlets, to integrate) and
+        ``"image"`` (the dense PSFs -- the Splat baseline's image, or the fast track -- plus the
+        row differences summed along the rows, added on the device). In that order.
     pad : int
         Canvas padding.
     splat_ms, merge_ms, download_ms : float
@@ -203,12 +204,18 @@ class TileSplatter:
 
     @property
     def groups(self) -> int:
-        """Canvas planes (:attr:`SplatOutput.kinds`)."""
+        """Tile planes (:attr:`kinds`)."""
         return len(self.kinds)
 
+    @property
+    def canvas_kinds(self) -> tuple:
+        """The canvas planes the merge writes (:attr:`SplatOutput.kinds`)."""
+        return tuple(k for k, drawn in (("laplacian", "laplacian" in self.kinds),
+                                        ("image", any(k != "laplacian" for k in self.kinds))) if drawn)
+
     def _kinds(self) -> tuple:
-        """The planes this splatter's frames draw into (:attr:`SplatOutput.kinds`): those of the
-        kinds its cells (or bank entries) have."""
+        """The tile planes this splatter's frames draw into (of :data:`KINDS`): those of the kinds
+        its cells (or bank entries) have."""
         if self.dense_all:
             return ("dense",)
         kinds = self.bank.fast if self.bank is not None else self.ddb.kinds
@@ -322,7 +329,8 @@ class TileSplatter:
         # each work item's turned dense PSF: values and row headers (splat.cl splat_dense_rotated)
         scratch = ntiles * (2 * pad + 1) * (2 * pad + 2) * 16 if self.turns and not self.half_turns else 16
         scratch_buf = self._buffer("turned", scratch)
-        canvas_buf = self._buffer("canvas", self.groups * hc * wc * oc * 4)
+        planes = self.canvas_kinds
+        canvas_buf = self._buffer("canvas", len(planes) * hc * wc * oc * 4)
         b, q = dict(self.ddb.buffers, **self._bank_buffers), self.device.queue
         no_bank = self._buffer("no_bank", 16)   # read only by a bank kernel
         ev_splat = self.splat_kernel(
@@ -333,12 +341,12 @@ class TileSplatter:
             height, width, tw, th, tiles_x)
         ev_merge = self.merge_kernel(q, (hc,), (1,), tiles_buf, counts_buf, canvas_buf, tiles_x, tiles_y, tw, th, wc, hc,
                                      wait_for=[ev_splat])
-        canvas = self._host_canvas((self.groups, hc, wc, oc))
+        canvas = self._host_canvas((len(planes), hc, wc, oc))
         counts = np.empty((ntiles, 8), np.int64)
         ev_down = cl.enqueue_copy(q, canvas, canvas_buf, wait_for=[ev_merge], is_blocking=False)
         ev_counts = cl.enqueue_copy(q, counts, counts_buf, wait_for=[ev_splat], is_blocking=False)
         ev_down.wait()
         ev_counts.wait()
-        return SplatOutput(canvas, self.kinds, pad, event_ms(ev_splat), event_ms(ev_merge), event_ms(ev_down),
+        return SplatOutput(canvas, planes, pad, event_ms(ev_splat), event_ms(ev_merge), event_ms(ev_down),
                            int(counts[:, 0].sum()), int(counts[:, 1].sum()), ntiles, (tw, th),
                            _laplacian_box(counts, pad, hc, wc))

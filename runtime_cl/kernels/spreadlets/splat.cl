@@ -4,7 +4,8 @@
 // covering the canvas pixels those pixels can reach: (tile_h + 2 PAD) rows of (tile_w + 2 PAD)
 // pixels, GROUPS planes (LAP_GROUP, DENSE_GROUP, ROW_GROUP below). If the tile has a lit pixel it
 // zeroes its buffer and adds into it sequentially, so plain += is exact. merge_tiles then sums the
-// overlapping tiles of each canvas pixel in a fixed order (bit-reproducible results).
+// overlapping tiles of each canvas pixel in a fixed order (bit-reproducible results) into at most
+// two canvas planes: the Laplacian (to integrate) and the image (dense and row planes summed).
 // Canvas coordinates: input pixel (x, y) sits at (x + PAD, y + PAD).
 //
 // Pixels are splat by runs: up to RUN_MAX consecutive non-empty pixels of a tile row with the
@@ -421,17 +422,21 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global const long *coun
     if (cy >= canvas_h) return;
     const int buf_w = tile_w + 2 * PAD, buf_h = tile_h + 2 * PAD;
     const int ty_lo = first_tile(cy, tile_h, buf_h), ty_hi = min(cy / tile_h, tiles_y - 1);
-    for (int g = 0; g < GROUPS; ++g) {
-        __global float *dst = canvas + ((long)g * canvas_h + cy) * canvas_w * OC;
+    // canvas planes: the Laplacian (if drawn), then the image: dense plus row planes summed here
+    // (in that order, as the host summed them), not downloaded apart and added on the host
+    __global float *lap_dst = canvas + (long)cy * canvas_w * OC;
+    __global float *img_dst = canvas + ((long)(LAP_GROUP >= 0) * canvas_h + cy) * canvas_w * OC;
 #if ROW_GROUP >= 0
 #if OC == 1
-        double run = 0.0;
+    double run = 0.0;
 #else
-        double4 run = (double4)0.0;
+    double4 run = (double4)0.0;
 #endif
 #endif
-        for (int x = 0; x < canvas_w; ++x) {
-            const int tx_lo = first_tile(x, tile_w, buf_w), tx_hi = min(x / tile_w, tiles_x - 1);
+    for (int x = 0; x < canvas_w; ++x) {
+        const int tx_lo = first_tile(x, tile_w, buf_w), tx_hi = min(x / tile_w, tiles_x - 1);
+        pix_t img = (pix_t)0.0f;
+        for (int g = 0; g < GROUPS; ++g) {
             pix_t acc = (pix_t)0.0f;
             for (int ty = ty_lo; ty <= ty_hi; ++ty) {
                 for (int tx = tx_lo; tx <= tx_hi; ++tx) {
@@ -451,12 +456,25 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global const long *coun
 #endif
             }
 #endif
+            if (g == LAP_GROUP) {
 #if OC == 1
-            dst[x] = acc;
+                lap_dst[x] = acc;
 #elif OC == 3
-            vstore3(acc.xyz, x, dst);
+                vstore3(acc.xyz, x, lap_dst);
 #else
-            vstore4(acc, x, dst);
+                vstore4(acc, x, lap_dst);
+#endif
+            } else {
+                img += acc;
+            }
+        }
+        if (GROUPS > (LAP_GROUP >= 0)) {
+#if OC == 1
+            img_dst[x] = img;
+#elif OC == 3
+            vstore3(img.xyz, x, img_dst);
+#else
+            vstore4(img, x, img_dst);
 #endif
         }
     }

@@ -263,32 +263,54 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
         if not any(m.any() for m in members):
             continue
         colour, alpha, sites, stats = _splat_layer(splatter, layers, rgba, members)
-        known = ones
+        hidden = None
         nearer = sum(x.alpha * f[index - 1] for x, f in zip(layers, front)) if index else None
         if nearer is not None and np.any(nearer > 0):
             hidden, times = splatter.blur(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
             _add(stats, times)
-            known = 1.0 - hidden
-        # the formulas of the module docstring, in place where a full-frame temporary was made
-        weight = np.maximum(known, alpha)
-        np.divide(1.0, np.clip(weight, MIN_KNOWN, 1.0, out=weight), out=weight)
-        opacity = np.minimum(np.multiply(alpha, weight), 1.0)
-        covered = opacity.sum()   # the coverage after re-weighting (before the own-sites bound)
+        own = None
         if per_layer:                                                # something lies behind
             own, times = splatter.blur(np.minimum(sites, 1.0), stats["radius_px"])
             _add(stats, times)
-            bound = np.clip(known, MIN_KNOWN, 1.0)
-            np.minimum(np.divide(own, bound, out=bound), 1.0, out=bound)
-            np.maximum(opacity, bound, out=opacity)
-        out *= (1.0 - opacity)[..., None]   # "over", in place: the same products and sums
-        out += colour * weight[..., None]
-        gain = float(covered / max(float(np.minimum(alpha, 1.0).sum()), 1e-30))
-        per_layer.append(dict(stats, index=index, coverage_gain=gain))
+        # outside the box of what the layer drew (its splats, its own sites' blur) "over" leaves
+        # out as it is: the rest is done on that box alone (the same values, bitwise)
+        box = _support(colour, alpha, own)
+        covered, total = 0.0, 0.0
+        if box is not None:
+            alpha, colour = alpha[box], colour[box]
+            known = ones[box] if hidden is None else 1.0 - hidden[box]
+            # the formulas of the module docstring, in place where a full-frame temporary was made
+            weight = np.maximum(known, alpha)
+            np.divide(1.0, np.clip(weight, MIN_KNOWN, 1.0, out=weight), out=weight)
+            opacity = np.minimum(np.multiply(alpha, weight), 1.0)
+            covered = float(opacity.sum())   # the coverage after re-weighting (before the own-sites bound)
+            if own is not None:
+                bound = np.clip(known, MIN_KNOWN, 1.0)
+                np.minimum(np.divide(own[box], bound, out=bound), 1.0, out=bound)
+                np.maximum(opacity, bound, out=opacity)
+            view = out[box]
+            view *= (1.0 - opacity)[..., None]   # "over", in place: the same products and sums
+            view += colour * weight[..., None]
+            total = float(np.minimum(alpha, 1.0).sum())
+        per_layer.append(dict(stats, index=index, coverage_gain=covered / max(total, 1e-30)))
     info = {"edges": edges.tolist(), "layers": per_layer[::-1],
             "device_ms": sum(x["device_ms"] for x in per_layer),
             "transfer_ms": sum(x["transfer_ms"] for x in per_layer),
             "wall_ms": (time.perf_counter() - start) * 1e3}
     return out.astype(np.float32), info
+
+
+def _support(colour: np.ndarray, alpha: np.ndarray, own) -> tuple | None:
+    """(rows, cols) slices of the box outside which ``colour`` (H, W, C), ``alpha`` and ``own``
+    (H, W; or None) are all zero, or None if they are zero everywhere."""
+    live = np.any(colour != 0, axis=2)
+    live |= alpha != 0
+    if own is not None:
+        live |= own != 0
+    rows, cols = np.flatnonzero(live.any(axis=1)), np.flatnonzero(live.any(axis=0))
+    if not len(rows):
+        return None
+    return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
 
 
 def _running_sums(weights: np.ndarray) -> list:

@@ -60,17 +60,18 @@ class SpreadletLayerSplatter:
         if c1 != 4:
             raise InputError(f"images: {c1 - 1} colour channel(s); the spreadlet layers draw RGB and "
                              "opacity as one 4-channel image (give the layers RGB radiance)")
-        out = np.zeros((h, w, c1), np.float32)
+        out = None
         times = {"device_ms": 0.0, "transfer_ms": 0.0}
         for image, source in zip(images, sources):
             if source >= len(self.coords):
                 raise InputError(f"sources: input layer {source}, but coordinates were given for "
                                  f"{len(self.coords)} layer(s)")
             rendered, t = self._render(image, source)
-            out += rendered
+            # the renderer's image is a fresh array: the first is the sum so far (no zeros + add)
+            out = rendered if out is None else np.add(out, rendered, out=out)
             times["device_ms"] += t["device_ms"]
             times["transfer_ms"] += t["transfer_ms"]
-        return out, times
+        return (np.zeros((h, w, c1), np.float32) if out is None else out), times
 
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.blur_splatter.render(image, float(radius_px))

@@ -415,6 +415,17 @@ inline int first_tile(const int c, const int step, const int size) {
 // canvas (GROUPS, canvas_h, canvas_w, OC): each canvas pixel is the sum of the pixels of the lit
 // tiles covering it (counts[8 t + 7]), tiles in increasing index order. One work item per canvas row; the fixed local
 // size (1) spares PoCL a re-compile per image size.
+// canvas pixel x of a row of OC floats
+inline void store_pixel(__global float *row, const int x, const pix_t v) {
+#if OC == 1
+    row[x] = v;
+#elif OC == 3
+    vstore3(v.xyz, x, row);
+#else
+    vstore4(v, x, row);
+#endif
+}
+
 __kernel void merge_tiles(__global const pix_t *tiles, __global const long *counts, __global float *canvas,
                           const int tiles_x, const int tiles_y, const int tile_w, const int tile_h,
                           const int canvas_w, const int canvas_h) {
@@ -456,26 +467,12 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global const long *coun
 #endif
             }
 #endif
-            if (g == LAP_GROUP) {
-#if OC == 1
-                lap_dst[x] = acc;
-#elif OC == 3
-                vstore3(acc.xyz, x, lap_dst);
-#else
-                vstore4(acc, x, lap_dst);
-#endif
-            } else {
+            if (g == LAP_GROUP)
+                store_pixel(lap_dst, x, acc);
+            else
                 img += acc;
-            }
         }
-        if (GROUPS > (LAP_GROUP >= 0)) {
-#if OC == 1
-            img_dst[x] = img;
-#elif OC == 3
-            vstore3(img.xyz, x, img_dst);
-#else
-            vstore4(img, x, img_dst);
-#endif
-        }
+        if (GROUPS > (LAP_GROUP >= 0))
+            store_pixel(img_dst, x, img);
     }
 }

@@ -14,9 +14,9 @@ energy-scaled exactly as ``rotate.cl`` resamples them, stored as row spans. A pi
 the bank entry of the angle nearest its own, and the kernel splats it with the unrotated code
 (``BANK`` in ``kernels/spreadlets/splat.cl``); runs of pixels with the same cell and angle index
 form as in a still image. Measured on whirl at 1024^2 (README, "Where a spreadlet frame's time
-goes"): Splat / spreadlets 1.4x -> 4.1x, SSIM 0.99972 against the per-pixel turn; building the
-bank of its 118 turned cells took ~21-31 s, now ~5 s (README), hence opt-in
-(``spreadlet_rotation="bank"``).
+goes"): Splat / spreadlets 1.4x -> 4.1x (7.5-7.9x with the dual basis and without Laplacian
+entries, :func:`bank_needs`), SSIM 0.99972 against the per-pixel turn; building the bank of its
+118 turned cells took ~21-31 s, now ~5-6 s (README), hence opt-in (``spreadlet_rotation="bank"``).
 
 The price is the angle quantisation: a PSF point at distance R from the centre moves by at most
 R pi / K_i. K_i is chosen per cell so that this stays below ``angle_error_px`` for the cell's
@@ -299,7 +299,7 @@ class AngleBank:
         the cells its frames turn by other angles, so a bank holds what is drawn.
     laplacian : bool, default True
         False: no entry is Laplacian spreadlets, so a frame drawn from the bank has no Laplacian
-        plane to merge and integrate (:func:`keeps_laplacian` says when that is cheaper): a cell
+        plane to merge and integrate (:func:`bank_needs` says when that is cheaper): a cell
         that is not fast-tracked holds its dense PSF turned, and at angles 0 and pi its row
         differences where they cost less (a ``"dual"`` database).
     """

@@ -215,6 +215,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "reference spp) and plot accuracy against time with the Pareto front; needs the noise floor")
     p.add_argument("--knobs", metavar="A,B", type=lambda s: s.split(","),
                    help="with --sweep: only these knobs (default all; see lab/report/knobs.py)")
+    p.add_argument("--set", dest="sets", action="append", metavar="KEY=VALUE",
+                   help="an option for every runtime pass of the plan that takes it (repeatable; VALUE is a "
+                        "TOML value), e.g. --set spreadlet_rotation=bank; the report records the options")
     _add_where(p, "the reference's render passes and the databases' PSFs")
 
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")

@@ -248,10 +248,11 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline, executor=None, noise: bool = True, sweep=None) -> tuple:
+def _report(scene_path, out_dir, baseline, executor=None, noise: bool = True, sweep=None, options=None) -> tuple:
     from .pipeline import run_report
 
-    report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise, sweep=sweep)
+    report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise, sweep=sweep,
+                        options=options)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
         corrected = m.get("noise_corrected_psnr")
@@ -283,7 +284,9 @@ def cmd_report(args) -> int:
         raise UserError(f"--baseline {args.baseline}: a baseline is one scene's report.json; check one "
                         "scene at a time")
     from .pipeline import load_scene_and_plan
+    from .precompute.target import parse_sets
     from .report.table2 import write_summary
+    from .runtime_passes import with_pass_options
 
     sweep, noise = None, args.noise_floor
     if getattr(args, "sweep", False):
@@ -295,7 +298,10 @@ def cmd_report(args) -> int:
         sweep = select_knobs(args.knobs)
     elif getattr(args, "knobs", None) is not None:
         raise UserError(f"--knobs {','.join(args.knobs)}: --knobs chooses what --sweep turns; add --sweep")
+    options = parse_sets(args.sets, example="spreadlet_rotation=bank") if getattr(args, "sets", None) else {}
     loaded = [load_scene_and_plan(s) for s in scenes]               # every scene valid before hours of work
+    for _, plan in loaded:
+        with_pass_options(plan, options)                            # every option taken, before hours of work
     names = [scene.name for scene, _ in loaded]
     for path, (_, plan) in zip(scenes, loaded):
         if not plan.scored and (noise or sweep is not None or len(scenes) > 1 or args.baseline is not None):
@@ -309,11 +315,13 @@ def cmd_report(args) -> int:
         check_output_dir(args.out_dir or REPORTS / "table2")   # before hours of work
     with _executor(args) as executor:
         if len(scenes) == 1:
-            return _report(scenes[0], args.out_dir, args.baseline, executor, _noise(noise, loaded[0][1]), sweep)[0]
+            return _report(scenes[0], args.out_dir, args.baseline, executor, _noise(noise, loaded[0][1]), sweep,
+                           options)[0]
         root = Path(args.out_dir) if args.out_dir else None
         codes, reports, dirs = [], [], []
         for path, name, (_, plan) in zip(scenes, names, loaded):
-            code, report, out = _report(path, root / name if root else None, None, executor, _noise(noise, plan), sweep)
+            code, report, out = _report(path, root / name if root else None, None, executor, _noise(noise, plan),
+                                        sweep, options)
             codes.append(code), reports.append(report), dirs.append(out)
     page = write_summary(reports, dirs, root or REPORTS / "table2")
     print(f"LSR18 Table 2 over {len(reports)} scenes: {page.resolve()}")

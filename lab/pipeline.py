@@ -201,16 +201,20 @@ def default_out_dir(scene: Scene) -> Path:
 
 
 def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
-               executor: Executor | None = None, noise: bool = True, sweep=None) -> dict:
+               executor: Executor | None = None, noise: bool = True, sweep=None, options=None) -> dict:
     """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict.
 
     ``executor`` (default: this process) runs the reference's passes and the databases' cells;
     ``noise`` (default True: every report states it) measures the reference's noise floor and each
     method's noise-corrected MSE (see :func:`inputs_and_reference`); ``sweep``
     (a list of :class:`lab.report.knobs.Knob`) also measures accuracy against time knob by knob
-    (:mod:`lab.report.sweep`).
+    (:mod:`lab.report.sweep`); ``options`` (``--set``) are given to every runtime pass that takes
+    them (:func:`lab.runtime_passes.with_pass_options`).
     """
+    from .runtime_passes import with_pass_options
+
     scene, plan = load_scene_and_plan(scene_path)
+    plan = with_pass_options(plan, options or {})
     return report_scene(scene, plan, out_dir, baseline, progress, executor, noise, sweep)
 
 

@@ -70,6 +70,27 @@ def aperture_info(aperture) -> dict:
             "table_s": round(aperture.splatter.table.build_seconds, 3)}
 
 
+def with_pass_options(plan, table: dict):
+    """``plan`` with the options of ``table`` (``--set KEY=VALUE``) given to every runtime pass
+    that takes them; an option no pass takes is an error naming the passes' options."""
+    from dataclasses import replace
+
+    from runtime_cl.passes import pass_options
+
+    if not table:
+        return plan
+    takes = {label: pass_options(get_pass(plan.pass_run(label)[0])) for label in plan.runtime_passes}
+    for key, value in table.items():
+        if not any(key in t for t in takes.values()):
+            names = sorted({k for t in takes.values() for k in t})
+            raise UserError(f"--set {key}={value!r}: no pass of the plan ({', '.join(plan.runtime_passes)}) takes "
+                            f"{key!r}; their options are {', '.join(names) or 'none'}")
+    return replace(plan, pass_runs={
+        label: (plan.pass_run(label)[0], dict(plan.pass_run(label)[1], **{k: v for k, v in table.items()
+                                                                           if k in takes[label]}))
+        for label in plan.runtime_passes})
+
+
 def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, min_ms: float = TIMED_MIN_MS,
                 progress: bool = True) -> dict:
     """Every runtime pass of the plan on ``image``: report label -> (image, timing dict).

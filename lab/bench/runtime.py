@@ -28,7 +28,7 @@ def bench_runtime(scene_path, repeats: int, reference: bool = True, passes=None,
     from lab.pipeline import build_databases, inputs_and_reference, input_only, load_scene_and_plan
     from lab.precompute.target import parse_sets
     from lab.report.metrics import ssim
-    from lab.runtime_passes import run_runtime
+    from lab.runtime_passes import run_runtime, with_pass_options
 
     scene, plan = load_scene_and_plan(scene_path)
     if passes:
@@ -38,8 +38,7 @@ def bench_runtime(scene_path, repeats: int, reference: bool = True, passes=None,
                             f"choose from {list(plan.runtime_passes)}")
         plan = replace(plan, runtime_passes=tuple(p for p in plan.runtime_passes if p in passes))
     options = parse_sets(sets, example="spreadlet_rotation=bank") if sets else {}
-    if options:
-        plan = replace(plan, pass_runs=_with_options(plan, options))
+    plan = with_pass_options(plan, options)
     image, ref = inputs_and_reference(scene, plan)[:2] if reference else (input_only(scene), None)
     databases = build_databases(scene, plan, image)
     methods = {}
@@ -66,24 +65,6 @@ def bench_runtime(scene_path, repeats: int, reference: bool = True, passes=None,
             "targets": {"splat_time_over_spreadlets": ">= 10", "ssim_spreadlets_minus_splat": ">= -0.02",
                         "spreadlets.spreadlets_M_per_s": ">= 300 (aim ~650)"}}
     return output.write_bench("runtime", data)
-
-
-def _with_options(plan, table: dict) -> dict:
-    """The plan's ``pass_runs`` with the options of ``table`` (``--set``) added to every pass that
-    takes them; an option no pass takes is an error naming the passes' options."""
-    from runtime_cl.passes import get_pass, pass_options
-
-    from lab.errors import UserError
-
-    takes = {label: pass_options(get_pass(plan.pass_run(label)[0])) for label in plan.runtime_passes}
-    for key, value in table.items():
-        if not any(key in t for t in takes.values()):
-            names = sorted({k for t in takes.values() for k in t})
-            raise UserError(f"--set {key}={value!r}: no pass of the plan ({', '.join(plan.runtime_passes)}) takes "
-                            f"{key!r}; their options are {', '.join(names) or 'none'}")
-    return {label: (plan.pass_run(label)[0], dict(plan.pass_run(label)[1],
-                                                   **{k: v for k, v in table.items() if k in takes[label]}))
-            for label in plan.runtime_passes}
 
 
 def _hdr_split_cost(plan, image, databases, methods, repeats) -> dict | None:

@@ -89,6 +89,8 @@ def assemble_report(scene, plan, image, reference, ref_info, databases, results,
                   "camera": image.camera, "guard_px": image.guard_px},
         "plan": {"effects": plan.effects, "psf_models": list(plan.psf_models),
                  "runtime_passes": list(plan.runtime_passes),
+                 "pass_options": {label: plan.pass_run(label)[1] for label in plan.runtime_passes
+                                  if plan.pass_run(label)[1]},
                  "skipped": [f"{s.name}: {s.detail}" for s in plan.skipped]},
         "tonemap": TONEMAP,
         "metrics": "SSIM: skimage structural_similarity, gaussian sigma 1.5, data_range 1, channel_axis 2; "

@@ -241,9 +241,13 @@ def _plan_section(report: dict) -> str:
     effects = "".join(f"<tr><th class='text'>{esc(k)}</th><td class='text'>{esc(v)}</td></tr>"
                       for k, v in plan["effects"].items())
     skipped = "".join(f"<li>{esc(s)}</li>" for s in plan["skipped"])
+    options = "; ".join(f"{label}: " + ", ".join(f"{k} = {v}" for k, v in o.items())
+                        for label, o in plan.get("pass_options", {}).items())
     return (f"<h2 id='plan'>Plan</h2><table>{effects}<tr><th class='text'>PSF models</th><td class='text'>"
             f"{fmt(plan['psf_models'])}</td></tr><tr><th class='text'>runtime passes</th><td class='text'>"
-            f"{fmt(plan['runtime_passes'])}</td></tr></table><p>Not done, and why:</p><ul>{skipped}</ul>")
+            f"{fmt(plan['runtime_passes'])}</td></tr>"
+            + (f"<tr><th class='text'>pass options</th><td class='text'>{esc(options)}</td></tr>" if options else "")
+            + f"</table><p>Not done, and why:</p><ul>{skipped}</ul>")
 
 
 def render_page(report: dict) -> str:

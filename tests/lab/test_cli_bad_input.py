@@ -361,3 +361,5 @@ def test_bench_pass_options_are_checked_before_any_work(work, capfd):
                   work, "--set bogus=1", "spreadlet_rotation")
     fails_cleanly(["bench", "precompute", "--set", "spreadlet_rotation=bank"], capfd, work,
                   "not `bench precompute`")
+    fails_cleanly(["report", SCENES / "tiny.toml", "--set", "bogus=1", "--out-dir", work / "out"], capfd, work,
+                  "--set bogus=1", "spreadlet_rotation")

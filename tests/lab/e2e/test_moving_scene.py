@@ -119,3 +119,22 @@ def test_a_moving_scene_through_a_pinhole_blurs_motion_alone(motion_report, tmp_
 
     reference = read_rgb(folder / "reference.exr")
     assert report["methods"]["spreadlets"]["ssim"] > ssim(image.rgb, reference) + 0.01
+
+
+def test_report_set_gives_the_passes_an_option(motion_report, tmp_path):
+    """`splatlab report --set spreadlet_rotation=bank`: the passes that take it draw from the
+    angle bank (the same image to the bank's angle rounding), and the report says so."""
+    import json
+
+    from lab.cli import main
+
+    report, _ = motion_report
+    assert main(["report", str(SCENES / "tiny_motion.toml"), "--set", "spreadlet_rotation=bank",
+                 "--out-dir", str(tmp_path)]) == 0
+    banked = json.loads((tmp_path / "report.json").read_text())
+    options = banked["plan"]["pass_options"]
+    assert options["spreadlets"] == {"spreadlet_rotation": "bank"} and "pass_options" in report["plan"]
+    assert report["plan"]["pass_options"] == {}
+    assert abs(banked["methods"]["spreadlets"]["ssim"] - report["methods"]["spreadlets"]["ssim"]) < 0.005
+    assert banked["methods"]["splat"]["ssim"] == report["methods"]["splat"]["ssim"]   # dense: no bank
+    assert "spreadlet_rotation = bank" in (tmp_path / "index.html").read_text()

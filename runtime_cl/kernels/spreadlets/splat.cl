@@ -412,9 +412,16 @@ inline int first_tile(const int c, const int step, const int size) {
     return c < size ? 0 : (c - size) / step + 1;
 }
 
-// canvas (GROUPS, canvas_h, canvas_w, OC): each canvas pixel is the sum of the pixels of the lit
-// tiles covering it (counts[8 t + 7]), tiles in increasing index order. One work item per canvas row; the fixed local
-// size (1) spares PoCL a re-compile per image size.
+// Whether tile counts c (splat_tiles' out[]) drew into plane g: a tile without lit pixels drew
+// nothing, and a lit one only the planes of the kinds its pixels have (skipping an all-zero plane
+// adds no term: the sums are bitwise the same)
+inline int drew(__global const long *c, const int g) {
+    if (!c[7]) return 0;
+    if (g == DENSE_GROUP) return c[1] != 0;
+    if (g == LAP_GROUP) return c[2] != 0;
+    return c[0] != c[2];   // ROW_GROUP: the spreadlets that are not Laplacian
+}
+
 // canvas pixel x of a row of OC floats
 inline void store_pixel(__global float *row, const int x, const pix_t v) {
 #if OC == 1
@@ -426,6 +433,9 @@ inline void store_pixel(__global float *row, const int x, const pix_t v) {
 #endif
 }
 
+// canvas (planes, canvas_h, canvas_w, OC): each canvas pixel is the sum of the pixels of the
+// tiles covering it that drew into the plane (drew()), tiles in increasing index order. One work
+// item per canvas row; the fixed local size (1) spares PoCL a re-compile per image size.
 __kernel void merge_tiles(__global const pix_t *tiles, __global const long *counts, __global float *canvas,
                           const int tiles_x, const int tiles_y, const int tile_w, const int tile_h,
                           const int canvas_w, const int canvas_h) {
@@ -452,7 +462,7 @@ __kernel void merge_tiles(__global const pix_t *tiles, __global const long *coun
             for (int ty = ty_lo; ty <= ty_hi; ++ty) {
                 for (int tx = tx_lo; tx <= tx_hi; ++tx) {
                     const long t = (long)ty * tiles_x + tx;
-                    if (!counts[8 * t + 7]) continue;   // a tile without lit pixels drew nothing
+                    if (!drew(counts + 8 * t, g)) continue;   // its plane g is all zero
                     acc += tiles[((t * GROUPS + g) * buf_h + (cy - ty * tile_h)) * buf_w + (x - tx * tile_w)];
                 }
             }

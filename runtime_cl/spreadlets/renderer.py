@@ -1,10 +1,11 @@
 """Render labelled pixels into an image with a spreadlet database: LSR18's method and baselines.
 
 ``spreadlets`` (LSR18 section 6): each pixel splats its cell's spreadlets times its colour into
-a padded canvas plane by kind (:attr:`~runtime_cl.spreadlets.splat.SplatOutput.kinds`): Laplacian
-spreadlets, integrated by the renderer's integrator (:mod:`runtime_cl.integrate`: by default
-``fft32``, :func:`~runtime_cl.integrate.poisson.poisson_integrate` in float32); fast-tracked
-cells' dense PSFs; row differences, summed along the rows as the tiles merge. The planes are
+a padded tile plane by kind: Laplacian spreadlets, integrated by the renderer's integrator
+(:mod:`runtime_cl.integrate`: by default ``fft32``,
+:func:`~runtime_cl.integrate.poisson.poisson_integrate` in float32); fast-tracked cells' dense
+PSFs; row differences, summed along the rows as the tiles merge, into one image plane with the
+dense PSFs (:attr:`~runtime_cl.spreadlets.splat.SplatOutput.kinds`). The two canvas planes are
 added and the padding cropped. ``splat``: every pixel splats its dense PSF. ``filter``: every output
 pixel gathers with its own PSF. All three use the same PSFs, so they differ only by method.
 

@@ -16,7 +16,9 @@ import argparse
 import base64
 import itertools
 import json
+import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -64,7 +66,7 @@ class Chromium:
             [self.executable, "--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run",
              "--no-default-browser-check", "--hide-scrollbars", "--remote-debugging-port=0",
              "--allow-file-access-from-files", f"--user-data-dir={self._profile.name}", "about:blank"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         try:
             page = self._page(self._port())
             self._ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=LOAD_TIMEOUT_S,
@@ -115,7 +117,20 @@ class Chromium:
             except subprocess.TimeoutExpired:
                 self._proc.kill()
                 self._proc.wait()
-        self._profile.cleanup()
+        # its helpers (renderer, crashpad) can outlive it and still write into the profile, which
+        # made the clean-up fail ("Directory not empty") on a loaded machine: end its whole session
+        try:
+            os.killpg(self._proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        for attempt in range(50):
+            try:
+                self._profile.cleanup()
+                return
+            except OSError:
+                if attempt == 49:
+                    raise
+                time.sleep(0.1)
 
     def call(self, method: str, **params) -> dict:
         """Send one command and return its result; events that arrive meanwhile are kept."""

@@ -262,7 +262,8 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
         members = [wt[index] for wt in weights]
         if not any(m.any() for m in members):
             continue
-        colour, alpha, sites, stats = _splat_layer(splatter, layers, rgba, members)
+        resolved, sites, stats = _splat_layer(splatter, layers, rgba, members)
+        colour, alpha = resolved[..., :c], resolved[..., c]
         hidden = None
         nearer = sum(x.alpha * f[index - 1] for x, f in zip(layers, front)) if index else None
         if nearer is not None and np.any(nearer > 0):
@@ -274,7 +275,7 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
             _add(stats, times)
         # outside the box of what the layer drew (its splats, its own sites' blur) "over" leaves
         # out as it is: the rest is done on that box alone (the same values, bitwise)
-        box = _support(colour, alpha, own)
+        box = _support(resolved, own)
         covered, total = 0.0, 0.0
         if box is not None:
             alpha, colour = alpha[box], colour[box]
@@ -300,14 +301,19 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
     return out.astype(np.float32), info
 
 
-def _support(colour: np.ndarray, alpha: np.ndarray, own) -> tuple | None:
-    """(rows, cols) slices of the box outside which ``colour`` (H, W, C), ``alpha`` and ``own``
-    (H, W; or None) are all zero, or None if they are zero everywhere."""
-    live = np.any(colour != 0, axis=2)
-    live |= alpha != 0
+def _support(resolved: np.ndarray, own) -> tuple | None:
+    """(rows, cols) slices of the box outside which the resolved layer (H, W, C + 1) is zero and
+    ``own`` (H, W, or None) is <= 0 (where it is not positive the own-sites bound changes nothing),
+    or None if there is no such pixel. Row and column maxima of magnitudes (a reduction along
+    contiguous memory: ``np.any(..., axis=2)`` took 20 ms a layer at 1024^2, this 3-4 ms)."""
+    h, w, k = resolved.shape
+    mag = np.abs(resolved)
+    rows = mag.max(axis=(1, 2)) > 0
+    cols = mag.reshape(h, w * k).max(axis=0).reshape(w, k).max(axis=1) > 0
     if own is not None:
-        live |= own != 0
-    rows, cols = np.flatnonzero(live.any(axis=1)), np.flatnonzero(live.any(axis=0))
+        rows |= own.max(axis=1) > 0
+        cols |= own.max(axis=0) > 0
+    rows, cols = np.flatnonzero(rows), np.flatnonzero(cols)
     if not len(rows):
         return None
     return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
@@ -328,7 +334,7 @@ def _add(stats: dict, times: dict) -> None:
 
 
 def _splat_layer(splatter: LayerSplatter, layers, rgba, members):
-    """One depth layer: resolved premultiplied colour (H, W, C), coverage (H, W), the coverage of
+    """One depth layer: resolved premultiplied colour and coverage (H, W, C + 1), the coverage of
     its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, times).
     ``rgba``: each input layer's colour and coverage as one (H, W, C + 1) image."""
     c = layers[0].rgb.shape[2]
@@ -344,4 +350,4 @@ def _splat_layer(splatter: LayerSplatter, layers, rgba, members):
     stats = {"pixels": int(sum((m > 0).sum() for _, _, m in parts)), "radius_px": rho,
              "max_radius_px": float(max(r.max() for r in radii)), "device_ms": times["device_ms"],
              "transfer_ms": times["transfer_ms"]}
-    return resolved[..., :c], resolved[..., c], sites.astype(np.float32), stats
+    return resolved, sites.astype(np.float32), stats

@@ -15,8 +15,9 @@ the bank entry of the angle nearest its own, and the kernel splats it with the u
 (``BANK`` in ``kernels/spreadlets/splat.cl``); runs of pixels with the same cell and angle index
 form as in a still image. Measured on whirl at 1024^2 (README, "Where a spreadlet frame's time
 goes"): Splat / spreadlets 1.4x -> 4.1x (7.5-7.9x with the dual basis and without Laplacian
-entries, :func:`bank_needs`), SSIM 0.99972 against the per-pixel turn; building the bank of its
-118 turned cells took ~21-31 s, now ~5-6 s (README), hence opt-in (``spreadlet_rotation="bank"``).
+entries, :func:`bank_needs`), SSIM 0.99972 against the per-pixel turn. Only the entries a
+frame draws are built (``entries``; on whirl 8.8 k of 60.5 k: ~1 s, where every angle of its 118
+turned cells took ~5 s and, before, 21-31 s), so the bank is the spreadlet passes' default.
 
 The price is the angle quantisation: a PSF point at distance R from the centre moves by at most
 R pi / K_i. K_i is chosen per cell so that this stays below ``angle_error_px`` for the cell's
@@ -33,7 +34,8 @@ from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, dense_row_spans, half_turn_rows
 
-__all__ = ["ANGLE_ERROR_PX", "LAPLACIAN_PLANE_ADDS", "AngleBank", "angles_for_reach", "bank_needs", "turned_dense",
+__all__ = ["ANGLE_ERROR_PX", "LAPLACIAN_PLANE_ADDS", "AngleBank", "angle_counts", "angles_for_reach", "bank_needs", "cell_reach",
+           "entry_of", "turned_dense",
            "turned_spreadlets"]
 
 # Largest displacement (px) of a PSF's farthest point by the angle rounding; see the module docstring
@@ -54,6 +56,46 @@ def angles_for_reach(reach_px: float, error_px: float) -> int:
     ``reach_px`` from the centre by at most ``error_px`` (half a step: reach pi / K)."""
     k = math.ceil(math.pi * max(reach_px, 1.0) / error_px / 4.0) * 4
     return int(min(max(k, 4), MAX_ANGLES))
+
+
+def cell_reach(db: SpreadletDatabase, laplacian: bool) -> np.ndarray:
+    """How far each cell's bank entries reach from the centre when turned (float64 (n,)): a cell
+    drawn dense (fast-tracked, or any cell without Laplacian entries) its crop's corner,
+    sqrt 2 (r + 1) -- not its farthest non-zero pixel: that tighter bound halved K and fell below
+    the brute-force check's SSIM floor (0.9942) -- and a spreadlet cell its farthest spreadlet."""
+    dense = db.fast_track.astype(bool) | (not laplacian)
+    corner = math.sqrt(2.0) * (db.dense_radius.astype(np.float64) + 1.0)
+    norm = np.sqrt((db.P.astype(np.float64) ** 2).sum(axis=1)) if len(db.P) else np.zeros(0)
+    far = np.zeros(db.n_samples)
+    has = np.diff(db.C) > 0
+    if has.any():   # reduceat over the non-empty cells' spans only
+        far[has] = np.maximum.reduceat(norm, db.C[:-1][has])
+    return np.where(dense, corner, far)
+
+
+def angle_counts(db: SpreadletDatabase, cells: np.ndarray, laplacian: bool,
+                 error_px: float = ANGLE_ERROR_PX) -> np.ndarray:
+    """K_i of every cell of an :class:`AngleBank` (int32 (n,)): :func:`angles_for_reach` of its
+    :func:`cell_reach` for the ``cells`` turned by every angle, 4 (the quarter turns) for the
+    others."""
+    reach = cell_reach(db, laplacian)
+    return np.array([angles_for_reach(r, error_px) if c else 4 for r, c in zip(reach, np.asarray(cells, bool))],
+                    np.int32)
+
+
+def entry_of(K: np.ndarray, cell: np.ndarray, angle: np.ndarray, margin: float = 1e-3) -> tuple:
+    """The bank entries (cell, k) pixels of ``cell`` (int) at ``angle`` (float32 radians) take, as
+    ``bank_entry`` in ``kernels/spreadlets/splat.cl`` rounds them: ``(cell, k)`` int64 arrays,
+    each pixel once, and again with the neighbouring k where its angle lies within ``margin``
+    of a step's half-way point (float32 rounding on the device may land it either side)."""
+    Kc = K[cell].astype(np.float32)
+    t = np.fmod(np.asarray(angle, np.float32), np.float32(2.0 * np.pi)) * (Kc * np.float32(0.5 / np.pi))
+    k = np.rint(t)
+    off = t - k
+    near = np.abs(np.abs(off) - 0.5) < margin
+    kk = np.concatenate([k, (k + np.sign(off))[near]]).astype(np.int64)
+    cc = np.concatenate([cell, cell[near]]).astype(np.int64)
+    return cc, np.mod(kk, K[cc])
 
 
 def bank_cs(k: int, K: int) -> tuple:
@@ -199,24 +241,23 @@ def row_turns(P: np.ndarray, V: np.ndarray) -> list:
     return out
 
 
-def _with_row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, cnt, pts, vals, dense: list,
-                      kinds: list) -> tuple:
-    """Cell ``i``'s bank entries with those at angles 0 and pi (k = 0 and K / 2) replaced by a dual
-    database's row differences (or its dense PSF, if fast-tracked as rows): ``dense`` and
-    ``kinds`` in place; returns the new (counts, P, V)."""
-    K, ch = len(cs), db.channels
-    half = K // 2
-    per = list(zip(np.split(pts, np.cumsum(cnt)[:-1]), np.split(vals, np.cumsum(cnt)[:-1])))
+def _row_entries(db: SpreadletDatabase, i: int, cs: np.ndarray, ks: list, per: list, dense: list,
+                 kinds: list) -> None:
+    """Cell ``i``'s bank entries at angles 0 and pi (``ks``: those of k = 0 and K / 2 the bank
+    builds; ``cs`` their (cos, sin)) replaced by a dual database's row differences (or its dense
+    PSF, if fast-tracked as rows): ``per`` (spreadlets per angle), ``dense`` and ``kinds`` in
+    place."""
+    ch = db.channels
     if db.row_fast[i]:
-        dense[0], dense[half] = turned_dense(db.dense_psf(i), cs[[0, half]])
-        kinds[0] = kinds[half] = KIND_DENSE
-        per[0] = per[half] = (np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32))
-    else:
-        per[0], per[half] = row_turns(*db.row_spreadlets(i))
-        dense[0] = dense[half] = _empty_entry(ch)
-        kinds[0] = kinds[half] = KIND_ROWS
-    counts = np.array([len(p) for p, _ in per], np.int64)
-    return counts, np.concatenate([p for p, _ in per]), np.concatenate([v for _, v in per])
+        turned = turned_dense(db.dense_psf(i), cs)
+        for k, d in zip(ks, turned):
+            dense[k], kinds[k] = d, KIND_DENSE
+            per[k] = (np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32))
+        return
+    rows = row_turns(*db.row_spreadlets(i))
+    for k, (c, _) in zip(ks, cs):
+        per[k] = rows[0 if c > 0 else 1]
+        dense[k], kinds[k] = _empty_entry(ch), KIND_ROWS
 
 
 def _half_turn_rows(db: SpreadletDatabase, dense_n: np.ndarray, laplacian: bool) -> np.ndarray:
@@ -232,7 +273,7 @@ def _half_turn_rows(db: SpreadletDatabase, dense_n: np.ndarray, laplacian: bool)
 
 
 def bank_needs(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, angle: np.ndarray,
-               dense_n: np.ndarray | None = None) -> tuple:
+               dense_n: np.ndarray | None = None, lit_cells: np.ndarray | None = None) -> tuple:
     """What an :class:`AngleBank` must hold to draw this frame: ``(cells, laplacian)``.
 
     ``cells`` (n,) bool: the cells of the lit pixels whose angle is no multiple of 90 degrees
@@ -244,7 +285,10 @@ def bank_needs(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, an
     widened by the database's reach. On whirl a horizontally sliding capsule is the only
     Laplacian left (its rows are ramps: 857 row differences against 247 Laplacian spreadlets),
     +22 M adds against a 1.1 M px box. ``dense_n``: each dense PSF's pixels in its row spans
-    (default :func:`~runtime_cl.psf.upload.dense_row_spans`'s).
+    (default :func:`~runtime_cl.psf.upload.dense_row_spans`'s). ``lit_cells``: the cells of the
+    lit (non-zero) pixels in row-major order, if the caller has them (the
+    :class:`~runtime_cl.spreadlets.renderer.Renderer` takes the splat kernel's own map on the
+    device); default the grid's numpy map.
     """
     lit = np.any(colour != 0, axis=2)
     cells = np.zeros(db.n_samples, bool)
@@ -253,7 +297,7 @@ def bank_needs(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, an
     a = np.fmod(angle[lit].astype(np.float64), 2.0 * math.pi)
     quarter = np.rint(a / (0.5 * math.pi))
     off = np.abs(a - quarter * (0.5 * math.pi)) > 2.0 ** -19
-    cell = db.grid.index(np.asarray(coords[lit], np.float64))
+    cell = db.grid.index(np.asarray(coords[lit], np.float64)) if lit_cells is None else lit_cells
     cells[np.unique(cell[off])] = True
     dense_n = dense_row_spans(db)[2] if dense_n is None else dense_n
     half = ~off & (quarter.astype(np.int64) % 2 == 0)
@@ -302,10 +346,14 @@ class AngleBank:
         plane to merge and integrate (:func:`bank_needs` says when that is cheaper): a cell
         that is not fast-tracked holds its dense PSF turned, and at angles 0 and pi its row
         differences where they cost less (a ``"dual"`` database).
+    entries : ndarray of bool (sum K_i,), optional
+        The entries to build (by :func:`angle_counts`' layout); the others are left empty.
+        Default: all. The renderer passes those its frames draw (:func:`entry_of`): building a
+        turned PSF is the bank's cost, and a frame draws few of its angles.
     """
 
     def __init__(self, db: SpreadletDatabase, angle_error_px: float = ANGLE_ERROR_PX, cells=None,
-                 laplacian: bool = True):
+                 laplacian: bool = True, entries=None):
         if isinstance(angle_error_px, bool) or not (isinstance(angle_error_px, (int, float))
                                                     and 0.01 <= angle_error_px <= 10.0):
             raise InputError(f"angle_error_px = {angle_error_px!r}: must be a number in [0.01, 10] px "
@@ -314,37 +362,39 @@ class AngleBank:
         self.laplacian = bool(laplacian)
         n, ch = db.n_samples, db.channels
         self.cells = np.ones(n, bool) if cells is None else np.asarray(cells, bool).copy()
-        k_of = np.zeros(n, np.int32)
+        k_of = angle_counts(db, self.cells, self.laplacian, self.angle_error_px)
+        self.built = np.ones(int(k_of.sum()), bool) if entries is None else np.asarray(entries, bool).copy()
+        if self.built.shape != (int(k_of.sum()),):
+            raise InputError(f"entries: shape {self.built.shape}, need one flag per bank entry ({int(k_of.sum())},)")
+        base = np.concatenate([[0], np.cumsum(k_of)[:-1]])
         P_parts, V_parts, counts, fast, dense_parts = [], [], [], [], []
         dense_n = dense_row_spans(db)[2]
         half_rows = _half_turn_rows(db, dense_n, laplacian)
+        empty_pv = (np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32))
         for i in range(n):
+            K = int(k_of[i])
+            ks = np.flatnonzero(self.built[base[i]:base[i] + K])
             is_dense = bool(db.fast_track[i]) or not laplacian
-            if is_dense:
+            per, dense = [empty_pv] * K, [_empty_entry(ch)] * K
+            entry_kinds = [KIND_DENSE if is_dense else KIND_LAPLACIAN] * K
+            rows = [k for k in ks if half_rows[i] and k in (0, K // 2)]   # angles 0 and pi: as the kernel draws them
+            turn = [k for k in ks if k not in rows]
+            cs = np.array([bank_cs(k, K) for k in turn]).reshape(-1, 2)
+            if turn and is_dense:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array
                 psf = db.dense_psf(i)
-                # the crop's corner (its turned reach), not its farthest non-zero pixel: that
-                # tighter bound halved K and fell below the brute-force check's SSIM floor (0.9942)
-                reach = math.sqrt(2.0) * (int(db.dense_radius[i]) + 1)
-            else:
-                p, v = db.spreadlets(i)
-                reach = float(np.sqrt((p.astype(np.float64) ** 2).sum(axis=1)).max()) if len(p) else 0.0
-            K = angles_for_reach(reach, self.angle_error_px) if self.cells[i] else 4
-            k_of[i] = K
-            cs = np.array([bank_cs(k, K) for k in range(K)])
-            if is_dense:   # in chunks of angles: a 150 px square at 900 angles is 160 MB per array
-                dense = [d for a in range(0, K, 64) for d in turned_dense(psf, cs[a:a + 64])]
-                entry_kinds = [KIND_DENSE] * K
-                cnt = np.zeros(K, np.int64)
-                pts, vals = np.zeros((0, 2), np.int16), np.zeros((0, ch), np.float32)
-            else:
-                cnt, pts, vals = turned_spreadlets(p, v, cs)
-                dense = [_empty_entry(ch)] * K
-                entry_kinds = [KIND_LAPLACIAN] * K
-            if half_rows[i]:   # angles 0 and pi: the row differences, as the kernel draws them
-                cnt, pts, vals = _with_row_entries(db, i, cs, cnt, pts, vals, dense, entry_kinds)
-            P_parts.append(pts)
-            V_parts.append(vals)
-            counts.extend(cnt.tolist())
+                for a in range(0, len(turn), 64):
+                    for k, d in zip(turn[a:a + 64], turned_dense(psf, cs[a:a + 64])):
+                        dense[k] = d
+            elif turn:
+                cnt, pts, vals = turned_spreadlets(*db.spreadlets(i), cs)
+                bounds = np.concatenate([[0], np.cumsum(cnt)])
+                for j, k in enumerate(turn):
+                    per[k] = (pts[bounds[j]:bounds[j + 1]], vals[bounds[j]:bounds[j + 1]])
+            if rows:
+                _row_entries(db, i, np.array([bank_cs(k, K) for k in rows]), rows, per, dense, entry_kinds)
+            P_parts.extend(p for p, _ in per)
+            V_parts.extend(v for _, v in per)
+            counts.extend(len(p) for p, _ in per)
             fast.extend(entry_kinds)
             dense_parts.extend(dense)
         self.angles = k_of
@@ -360,8 +410,14 @@ class AngleBank:
         self.dense_n = np.array([len(v) for _, _, v in dense_parts], np.int64)
         self.dense_off = np.concatenate([[0], np.cumsum(self.dense_n)]).astype(np.int64)
         self.dense_v = np.concatenate([v for _, _, v in dense_parts]).astype(np.float32)
+        # the canvas pad of every entry of these cells, built or not, so that a frame's image does
+        # not depend on which entries earlier frames built: a turned entry lies within its
+        # reach, one pixel further when shared bilinearly; quarter turns and row differences
+        # within the database's own pad (plus the half-turned rows' one column)
+        turned = cell_reach(db, laplacian)[self.cells]
+        bound = max(db.pad + 1, int(np.floor(turned.max())) + 2 if len(turned) else 0)
         reach = int(np.abs(self.P.astype(np.int64)).max()) if len(self.P) else 0
-        self.pad = max(reach, int(self.dense_r.max())) + 1
+        self.pad = max(reach + 1, int(self.dense_r.max()) + 1, bound)
 
     @property
     def n_entries(self) -> int:

@@ -29,11 +29,11 @@ SPREADLET_ROTATIONS = ("bilinear", "nearest", "bank")
 # The tile planes a splat pass can draw (TileSplatter.kinds), in plane order; the merge sums the
 # dense and row planes into one canvas plane, "image" (SplatOutput.kinds)
 KINDS = ("laplacian", "dense", "rows")
-# What the Renderer and the spreadlet passes use. "bank" (runtime_cl/spreadlets/angle_bank.py) is
-# opt-in: on whirl's database it holds 160 k turned PSFs at 0.25 px (every cell; a frame's own
-# turned cells: 60 k, built in ~5 s)
-# (README "Where a spreadlet frame's time goes")
-DEFAULT_SPREADLET_ROTATION = "bilinear"
+# What the Renderer and the spreadlet passes use: the angle bank (runtime_cl/spreadlets/angle_bank.py),
+# built of the entries a frame draws (whirl: 8.8 k of 60.5 k turned PSFs, ~1 s once; a frame
+# 640 -> 130 ms against the per-pixel turn). It was opt-in while it built every angle of every
+# turned cell (~5 s; ~25 s before that). README "Where a spreadlet frame's time goes"
+DEFAULT_SPREADLET_ROTATION = "bank"
 
 
 @dataclass

@@ -70,13 +70,14 @@ def some_half_turns(rng, shape, share=0.7):
 
 def test_dual_draws_what_the_laplacian_draws_with_fewer_terms():
     """Any angles: half turns from the row differences (exact), other turns from the Laplacian,
-    as the Laplacian-only database draws them (its half turns are exact too)."""
+    as the Laplacian-only database draws them (its half turns are exact too). Turned per pixel
+    (the kernel's own dual path; the bank's is checked below)."""
     rng = np.random.default_rng(5)
     dual, lap = databases(rng)
     colour, coords = scene(rng)
     angle = some_half_turns(rng, colour.shape[:2])
-    out, t = Renderer(dual).render(colour, coords, "spreadlets", angle=angle)
-    want, tl = Renderer(lap).render(colour, coords, "spreadlets", angle=angle)
+    out, t = Renderer(dual, spreadlet_rotation="bilinear").render(colour, coords, "spreadlets", angle=angle)
+    want, tl = Renderer(lap, spreadlet_rotation="bilinear").render(colour, coords, "spreadlets", angle=angle)
     np.testing.assert_allclose(out, want, rtol=0, atol=5e-5 * np.abs(want).max())
     # each lit pixel drew its row differences at a half turn, its Laplacian otherwise
     half = (angle == 0) | (angle == np.float32(np.pi))
@@ -85,7 +86,7 @@ def test_dual_draws_what_the_laplacian_draws_with_fewer_terms():
     rows = np.where(half_turn_rows(dual), np.where(dual.row_fast, 0, np.diff(dual.row_C)), laps)
     assert t["spreadlets"] == np.where(half, rows[cell], laps[cell])[lit].sum() < 0.9 * tl["spreadlets"]
     colour[~half] = 0.0   # half turns alone: exactly the turned dense PSFs
-    out, _ = Renderer(dual).render(colour, coords, "spreadlets", angle=angle)
+    out, _ = Renderer(dual, spreadlet_rotation="bilinear").render(colour, coords, "spreadlets", angle=angle)
     exact = turned_splat_image(dual, colour, coords, angle)
     np.testing.assert_allclose(out, exact, rtol=0, atol=2e-5 * np.abs(exact).max())
 

@@ -3,7 +3,8 @@ the scene's own camera, with the pixel's lens sample and shutter time as channel
 
 Each pixel gets its own sub-pixel position (the box filter the references use), lens sample
 (u, v) and shutter time t, and one path traced with the scene's integrator (``path``; ``volpath``
-in a medium) through the camera's own Mitsuba sensor (``thinlens``, or the pinhole). Mitsuba
+in a medium) through the camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped
+aperture the reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). Mitsuba
 3.9.1 cannot move shapes during a launch, so, as for the motion reference
 (:mod:`lab.reference.motion`), the shutter is cut into sub-frames at most a pixel of motion
 apart: a pixel's time picks its sub-frame, and each sub-frame traces only its own pixels (one
@@ -11,8 +12,8 @@ path per pixel in all). ``time`` is the sub-frame's time, the time the path was 
 
 Channels written (the contract of :mod:`runtime_cl.stochastic.samples`): R, G, B (the path's
 radiance), A (1 where the primary ray hits a surface), Z (the planar depth of that hit from the
-camera at time t), ``lens.U, lens.V`` (in the film's axes: Mitsuba's aperture sample mirrored,
-as its camera x points left and y up) and ``time``; with motion also ``motion.X, motion.Y`` (the
+camera at time t), ``lens.U, lens.V`` (the lens point in the film's axes, :func:`lens_channels`)
+and ``time``; with motion also ``motion.X, motion.Y`` (the
 hit point's chord from shutter open to close, as the labelled input's).
 
 ``shading_spp`` > 1 traces that many paths from each pixel's one camera ray (same sub-pixel
@@ -25,6 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from runtime_cl.stochastic.samples import inverse_concentric
+
 from ..errors import UserError
 from ..exr_io import LabelledImage
 from ..motion import scene_moves
@@ -33,7 +36,7 @@ from .backend import mitsuba
 from .motion import Animator, project, subframes_for
 from .render import load
 
-__all__ = ["render_stochastic", "stochastic_seed", "trace_samples"]
+__all__ = ["lens_channels", "render_stochastic", "stochastic_seed", "trace_samples"]
 
 _STREAM = 0x5707    # the stochastic input's seed stream (apart from the reference and input streams)
 
@@ -45,11 +48,38 @@ def stochastic_seed(scene: Scene, index: int) -> np.random.SeedSequence:
 
 def _check_camera(scene: Scene) -> None:
     cam = scene.camera
-    if cam.model == "pinhole" or (cam.model == "thin" and cam.iris() is None and cam.shaped() is None):
+    if cam.model in ("pinhole", "thin"):
         return
-    raise UserError(f"{scene.source} [camera]: a stochastic input is written for a thin lens with a round "
-                    f"aperture or a pinhole (its lens samples are points of the unit disc); this camera is "
-                    f"{cam.model!r}{' with a shaped aperture' if cam.model == 'thin' else ''}")
+    raise UserError(f"{scene.source} [camera]: a stochastic input is written for a thin lens (a round, iris or "
+                    f"shaped aperture) or a pinhole, whose lens samples are points of the unit disc; this camera "
+                    f"is {cam.model!r}")
+
+
+def lens_channels(scene: Scene, lens: np.ndarray) -> tuple:
+    """``lens.U, lens.V`` (float32 (N,) each, in [0, 1)) of Mitsuba aperture samples ``lens``
+    ((N, 2) float32): the concentric-map coordinates of each ray's lens point in the film's axes
+    (x right, y down; :func:`runtime_cl.stochastic.concentric_disc`), unit circumradius.
+
+    Mitsuba's camera has x left and y up. Its ``thinlens`` puts a sample at the concentric point
+    of (u, v), which is odd in each coordinate, so ``(1 - u, 1 - v)`` is the film's point (exact).
+    An iris or a shaped aperture (:mod:`lab.reference.aperture_lens`) puts it at the camera's
+    (-x, y) of its shape's point (x, y) (lens plane, x right, y up): the film's (x, -y), mapped
+    back to the square by the inverse concentric map.
+    """
+    cam = scene.camera
+    iris, shaped = (cam.iris(), cam.shaped()) if cam.model == "thin" else (None, None)
+    top = np.float32(np.nextafter(np.float32(1.0), np.float32(0.0)))
+    if iris is None and shaped is None:
+        return np.minimum(1.0 - lens[:, 0], top), np.minimum(1.0 - lens[:, 1], top)
+    from drjit.llvm import Array2f, Float
+
+    from ..optics.aperture import make_aperture
+
+    shape = shaped.aperture() if shaped is not None else make_aperture(
+        "polygon", blades=iris.blades, rotation_deg=iris.rotation_deg, rounding=iris.rounding)
+    p = shape.sample(Array2f(Float(lens[:, 0]), Float(lens[:, 1])))
+    u, v = inverse_concentric(np.asarray(p.x, np.float64), -np.asarray(p.y, np.float64))
+    return np.minimum(u.astype(np.float32), top), np.minimum(v.astype(np.float32), top)
 
 
 def _flow(scene: Scene, points, t_frac, shape_idx) -> np.ndarray:
@@ -82,7 +112,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     Parameters
     ----------
     scene : Scene
-        A thin-lens (round aperture) or pinhole scene.
+        A thin-lens (round, iris or shaped aperture) or pinhole scene.
     index : int
         Which independent image (seeds: :func:`stochastic_seed`); 4 spp is images 0-3.
     max_motion_px : float
@@ -154,7 +184,7 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
     Parameters
     ----------
     scene : Scene
-        A thin-lens (round aperture) or pinhole scene.
+        A thin-lens (round, iris or shaped aperture) or pinhole scene.
     index : int
         Which independent image (seeds: :func:`stochastic_seed`); 4 spp is images 0-3.
     max_motion_px : float
@@ -165,12 +195,8 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
     w, h = scene.width, scene.height
     tr = trace_samples(scene, index, max_motion_px, shading_spp)
     lens, depth, t_frac = tr["lens"], tr["depth"], tr["t_frac"]
-    # Mitsuba's camera has x left and y up, the film x right and y down: the concentric map is odd
-    # in each coordinate, so 1 - u mirrors the disc point into the film's axes
-    top = np.float32(np.nextafter(np.float32(1.0), np.float32(0.0)))
-    extra = {"lens.U": np.minimum(1.0 - lens[:, 0], top).reshape(h, w),
-             "lens.V": np.minimum(1.0 - lens[:, 1], top).reshape(h, w),
-             "time": t_frac.astype(np.float32).reshape(h, w)}
+    u, v = lens_channels(scene, lens)
+    extra = {"lens.U": u.reshape(h, w), "lens.V": v.reshape(h, w), "time": t_frac.astype(np.float32).reshape(h, w)}
     if scene_moves(scene):
         flow = np.zeros((h * w, 2), np.float32)
         hit = np.isfinite(depth)

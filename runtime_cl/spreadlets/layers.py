@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.errors import InputError
+from runtime_cl.layers.composite import nonzero_box
 
 __all__ = ["SpreadletLayerSplatter"]
 
@@ -45,10 +46,21 @@ class SpreadletLayerSplatter:
         self.renderer, self.method, self.coords = renderer, method, list(coords)
         self.blur_splatter = builtin_splatter(BLUR_SHAPE, renderer.device)
         self.counts = {"spreadlets": 0, "dense_pixels": 0, "highlights": 0}
+        # how far a pixel's splat can land from it, turned or not (+1: the bilinear share)
+        self.reach = int(renderer.db.rotated_pad) + 1
 
     def _render(self, image, source: int) -> tuple:
         coords, angle = self.coords[source]
-        out, t = self.renderer.render(image, coords, self.method, angle=angle)
+        window = nonzero_box(image, self.reach)
+        if window is None:   # nothing to splat
+            return np.zeros(image.shape[:2] + (max(image.shape[2], self.renderer.db.channels),), np.float32), \
+                {"device_ms": 0.0, "transfer_ms": 0.0}
+        crop, t = self.renderer.render(image[window], coords[window], self.method,
+                                       angle=None if angle is None else angle[window])
+        # the layer's pixels and every splat they reach, placed in a zero frame (pages outside the
+        # window are not touched here)
+        out = np.zeros(image.shape[:2] + crop.shape[2:], np.float32)
+        out[window] = crop
         self.counts["spreadlets"] += int(t["spreadlets"])
         self.counts["dense_pixels"] += int(t["dense_pixels"])
         self.counts["highlights"] += int(t["highlights"])
@@ -76,3 +88,4 @@ class SpreadletLayerSplatter:
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.blur_splatter.render(image, float(radius_px))
         return out, {"device_ms": info["kernel_ms"], "transfer_ms": info["transfer_ms"]}
+

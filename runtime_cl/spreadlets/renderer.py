@@ -142,6 +142,8 @@ class Renderer:
 
     def _cells(self, coords) -> np.ndarray:
         """The cells of PSF coordinates ((m, ns) float32) as the splat kernel maps them."""
+        if not len(coords):   # an empty frame: no cell (and a bank of nothing built)
+            return np.zeros(0, np.int64)
         if self._index is None:
             self._index = PsfIndexKernel(self.db.grid, self.device, fp64=self.ddb.fp64)
         return self._index.index(coords)[0].astype(np.int64)

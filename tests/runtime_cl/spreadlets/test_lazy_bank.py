@@ -93,3 +93,14 @@ def test_entry_flags_of_the_wrong_length():
     db = random_database(np.random.default_rng(34), r_max=4)
     with pytest.raises(InputError, match="entries: shape"):
         AngleBank(db, entries=np.ones(3, bool))
+
+
+def test_an_empty_frame_builds_nothing():
+    """A black frame (an empty depth layer) with turned pixels renders black and builds no entry."""
+    rng = np.random.default_rng(35)
+    db = random_database(rng, r_max=6, fast=0.3, spreadlets=(5, 40))
+    _, coords = frame(rng)
+    r = Renderer(db)
+    image, _ = r.render(np.zeros(coords.shape[:2] + (3,), np.float32), coords, "spreadlets",
+                        angle=np.full(coords.shape[:2], 0.3, np.float32))
+    assert not image.any() and not r._bank.built.any()

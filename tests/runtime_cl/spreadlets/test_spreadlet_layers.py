@@ -277,3 +277,29 @@ def test_integration_on_the_splats_support_is_the_full_solve():
     image[2:88, 2:118] = rng.random((86, 116, 4))
     lap = laplacian5(image).astype(np.float32)
     assert np.array_equal(integrate_support(exact, lap)[0], exact(lap)[0])
+
+
+@pytest.mark.parametrize("method", ["spreadlets", "splat", "filter"])
+@pytest.mark.parametrize("where", ["corner", "middle", "empty"])
+def test_a_layer_renders_on_its_window_as_on_the_frame(method, where):
+    """The layer splatter renders a layer on the box of its pixels widened by the PSFs' reach
+    (turned PSFs included), not the whole frame: the same image as the renderer's full-frame
+    render of it, up to float32 rounding (tiles grouped otherwise), and nothing for an empty layer."""
+    from cl_reference import random_database
+
+    rng = np.random.default_rng(9)
+    r = Renderer(random_database(rng, r_max=6, fast=0.3, spreadlets=(5, 40)))
+    h, w = 60, 70
+    rgba = np.zeros((h, w, 4), np.float32)
+    box = {"corner": (slice(0, 9), slice(60, 70)), "middle": (slice(25, 33), slice(30, 41)), "empty": None}[where]
+    if box is not None:
+        rgba[box] = rng.random(rgba[box].shape)
+    coords = (rng.random((h, w, 1)) * 6).astype(np.float32)
+    angle = rng.uniform(-np.pi, np.pi, (h, w)).astype(np.float32)
+    splatter = SpreadletLayerSplatter(r, method, [(coords, angle)])
+    got, _ = splatter.splat_layer([rgba], [np.zeros((h, w), np.float32)], [0])
+    want, _ = r.render(rgba, coords, method, angle=angle)
+    assert got.shape == want.shape == (h, w, 4)
+    np.testing.assert_allclose(got, want, rtol=0, atol=2e-6 * max(float(np.abs(want).max()), 1.0))
+    if box is not None:
+        assert np.abs(want[0, :50]).max() == 0 if where == "corner" else np.abs(want).max() > 0

@@ -84,6 +84,11 @@ class SpreadletPass(RuntimePass):
         if any(x is not None for x in (coords.direct, coords.gain, coords.receive)):
             raise InputError(f"a {self.db.model!r} database adds each pixel's unscattered light on its own "
                              "pixel, which depth layers do not composite; render the flat image (layers = 1)")
+        if coords.angle is not None and self.method == "spreadlets" and not self.layered_input:
+            # one bank for every layer of the frame: the pixels any layer draws (colour or coverage)
+            drawn = np.any(np.asarray(frame.rgb) != 0, axis=2) | (frame.coverage() != 0)
+            self.renderer.grow_bank(drawn[..., None].astype(np.float32), coords.coords,
+                                    np.asarray(coords.angle, np.float32))
         return np.asarray(frame.rgb), coords, far, self._pixel_layers(frame, coords)
 
     def _pixel_layers(self, frame, coords) -> tuple:
@@ -128,7 +133,8 @@ class SpreadletPass(RuntimePass):
             counts = {k: int(t[k]) for k in ("pixels", "spreadlets", "dense_pixels", "highlights")}
         else:
             pixels, per_layer = layered
-            splatter = SpreadletLayerSplatter(self.renderer, self.method, per_layer)
+            splatter = SpreadletLayerSplatter(self.renderer, self.method, per_layer,
+                                              bank_checked=self.method == "spreadlets" and not self.layered_input)
             image, info = render_layers(splatter, pixels, self.layers, soft=self.soft_layers)
             device_ms, transfer_ms = info["device_ms"], info["transfer_ms"]
             counts = dict(splatter.counts, pixels=int(rgb.shape[0] * rgb.shape[1]),

@@ -38,12 +38,17 @@ class SpreadletLayerSplatter:
     coords : list of (coords, angle)
         Per input layer (the ``sources`` index of :meth:`splat_layer`): PSF coordinates (H, W, ns)
         and angles (H, W) or None, as :func:`runtime_cl.coords.maps.psf_coords` gives them.
+    bank_checked : bool
+        The caller grew the renderer's angle bank for every pixel any layer draws
+        (:meth:`~runtime_cl.spreadlets.renderer.Renderer.grow_bank`, as the spreadlet passes do
+        once per frame); default False: each layer's render checks it.
     """
 
-    def __init__(self, renderer, method: str, coords: list):
+    def __init__(self, renderer, method: str, coords: list, bank_checked: bool = False):
         from runtime_cl.passes.polygon import builtin_splatter
 
         self.renderer, self.method, self.coords = renderer, method, list(coords)
+        self.bank_checked = bool(bank_checked)
         self.blur_splatter = builtin_splatter(BLUR_SHAPE, renderer.device)
         self.counts = {"spreadlets": 0, "dense_pixels": 0, "highlights": 0}
         # how far a pixel's splat can land from it, turned or not (+1: the bilinear share)
@@ -56,7 +61,8 @@ class SpreadletLayerSplatter:
             return np.zeros(image.shape[:2] + (max(image.shape[2], self.renderer.db.channels),), np.float32), \
                 {"device_ms": 0.0, "transfer_ms": 0.0}
         crop, t = self.renderer.render(image[window], coords[window], self.method,
-                                       angle=None if angle is None else angle[window])
+                                       angle=None if angle is None else angle[window],
+                                       bank_checked=self.bank_checked)
         # the layer's pixels and every splat they reach, placed in a zero frame (pages outside the
         # window are not touched here)
         out = np.zeros(image.shape[:2] + crop.shape[2:], np.float32)

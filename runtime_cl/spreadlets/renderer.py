@@ -98,6 +98,7 @@ class Renderer:
         self.hdr_ratio = hdr_ratio
         self._wrappers: dict = {}
         self._bank = None
+        self._spare_bank = None   # the bank of the other Laplacian choice (grow_bank)
         self._index = None   # PsfIndexKernel of the bank's cells
 
     @property
@@ -122,6 +123,10 @@ class Renderer:
         lit = np.any(colour != 0, axis=2)
         cell = self._cells(coords[lit])
         need, laplacian = bank_needs(self.db, colour, coords, angle, self.ddb.dense_n, lit_cells=cell)
+        if self._bank is not None and self._bank.laplacian != laplacian:
+            # the other choice's bank, kept from earlier frames: frames that alternate (depth
+            # layers, images of different content) swap banks instead of rebuilding them
+            self._bank, self._spare_bank = self._spare_bank, self._bank
         bank = self._bank
         if bank is not None:
             need |= bank.cells
@@ -138,7 +143,7 @@ class Renderer:
             k = (np.arange(bank.n_entries) - np.repeat(bank.base, bank.angles))[bank.built]
             entries[base[i] + k * K[i] // bank.angles[i]] = True
         self._bank = AngleBank(self.db, cells=need, laplacian=laplacian, entries=entries)
-        self._wrappers = {k: v for k, v in self._wrappers.items() if getattr(v, "bank", None) is None}
+        self._wrappers = {k: v for k, v in self._wrappers.items() if bank is None or getattr(v, "bank", None) is not bank}
 
     def _cells(self, coords) -> np.ndarray:
         """The cells of PSF coordinates ((m, ns) float32) as the splat kernel maps them."""
@@ -149,7 +154,9 @@ class Renderer:
         return self._index.index(coords)[0].astype(np.int64)
 
     def _wrapper(self, method: str, channels: int, rotate: bool, half: bool = False):
-        key = (method, channels, rotate, half)
+        # a splatter holding a bank is kept per bank (the two of grow_bank's choices)
+        banked = rotate and not half and METHODS[method].splats_spreadlets and self.spreadlet_rotation == "bank"
+        key = (method, channels, rotate, half) + ((id(self.angle_bank),) if banked else ())
         if key not in self._wrappers:
             self._wrappers[key] = METHODS[method].wrapper(self, channels, rotate, half)
         return self._wrappers[key]

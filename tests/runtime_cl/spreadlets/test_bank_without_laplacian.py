@@ -92,15 +92,19 @@ def test_bank_needs_drops_the_laplacian_when_it_costs_more():
 
 
 def test_the_renderer_rebuilds_the_bank_when_the_choice_changes():
-    """Each frame renders as from a bank built for it alone (the same entries: bitwise)."""
+    """Each frame renders as from a bank built for it alone (the same entries: bitwise); the bank
+    of the other choice is kept, so alternating frames build each bank once."""
     _, lap = databases(np.random.default_rng(24), fast=(), row_fast=())
     coords, angle, full, few, _, _ = lone_disc_frames(lap)
     r = Renderer(lap, spreadlet_rotation="bank")
+    banks = []
     for colour, keep in ((few, False), (full, True), (full, True), (few, False)):
         before = r._bank
         image, _ = r.render(colour, coords, "spreadlets", angle=angle)
         assert r._bank.laplacian == keep
         assert (r._bank is before) == (before is not None and before.laplacian == keep)
+        banks.append(r._bank)
         want, _ = banked(lap, colour, coords, angle, keep)[0].render(colour, coords, "spreadlets", angle=angle,
                                                                        bank_checked=True)
         np.testing.assert_array_equal(image, want)
+    assert banks[0] is banks[3] and banks[1] is banks[2] and banks[0] is not banks[1]

@@ -104,3 +104,30 @@ def test_an_empty_frame_builds_nothing():
     image, _ = r.render(np.zeros(coords.shape[:2] + (3,), np.float32), coords, "spreadlets",
                         angle=np.full(coords.shape[:2], 0.3, np.float32))
     assert not image.any() and not r._bank.built.any()
+
+
+def test_depth_layers_draw_from_one_bank_grown_on_the_whole_frame():
+    """The spreadlet passes grow the bank once per frame, on every pixel a layer draws (colour or
+    coverage alone: a black opaque pixel splats its opacity), and render the layers without
+    checking it again: the same image as layers that each grow the bank they draw from (so no
+    entry a layer needs is missing), and no rebuild from frame to frame."""
+    from runtime_cl.layers.composite import PixelLayer, render_layers
+    from runtime_cl.spreadlets.layers import SpreadletLayerSplatter
+
+    rng = np.random.default_rng(36)
+    db = random_database(rng, r_max=6, fast=0.3, spreadlets=(5, 40))
+    colour, coords = frame(rng)
+    alpha = (rng.random(colour.shape[:2]) < 0.8).astype(np.float32)
+    colour[rng.random(colour.shape[:2]) < 0.2] = 0.0   # black, mostly opaque pixels
+    coc = (coords[..., 0] - 3.0).astype(np.float32)
+    angle = rng.uniform(-3, 3, colour.shape[:2]).astype(np.float32)
+    layer = PixelLayer(colour * alpha[..., None], alpha, coc)
+    once = Renderer(db)
+    drawn = np.any(layer.rgb != 0, axis=2) | (alpha != 0)
+    once.grow_bank(drawn[..., None].astype(np.float32), coords, angle)
+    bank = once._bank
+    a, _ = render_layers(SpreadletLayerSplatter(once, "spreadlets", [(coords, angle)], bank_checked=True), layer, 3)
+    b, _ = render_layers(SpreadletLayerSplatter(Renderer(db), "spreadlets", [(coords, angle)]), layer, 3)
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-5 * np.abs(b).max())
+    render_layers(SpreadletLayerSplatter(once, "spreadlets", [(coords, angle)], bank_checked=True), layer, 3)
+    assert once._bank is bank

@@ -74,22 +74,23 @@ class SpreadletPass(RuntimePass):
         motion = frame.motion if needs_motion(self.db.model) else None
         far = None if self.far is None else self.far.prepare(self.camera, frame.depth)
         coords = psf_coords(self.camera, frame.depth, self.db, motion)
+        bank = None   # the angle bank's choice for this frame (Renderer.grow_bank)
         if self.layers == 1 and not self.layered_input:
             rgb = np.asarray(frame.rgb)
             if coords.angle is not None and self.method == "spreadlets":   # per-pixel work: here
                 spread = rgb if coords.gain is None else rgb * coords.gain[..., None]
-                self.renderer.grow_bank(np.asarray(spread, np.float32), coords.coords,
-                                        np.asarray(coords.angle, np.float32))
-            return rgb, coords, far, None
+                bank = self.renderer.grow_bank(np.asarray(spread, np.float32), coords.coords,
+                                               np.asarray(coords.angle, np.float32))
+            return rgb, coords, far, None, bank
         if any(x is not None for x in (coords.direct, coords.gain, coords.receive)):
             raise InputError(f"a {self.db.model!r} database adds each pixel's unscattered light on its own "
                              "pixel, which depth layers do not composite; render the flat image (layers = 1)")
         if coords.angle is not None and self.method == "spreadlets" and not self.layered_input:
             # one bank for every layer of the frame: the pixels any layer draws (colour or coverage)
             drawn = np.any(np.asarray(frame.rgb) != 0, axis=2) | (frame.coverage() != 0)
-            self.renderer.grow_bank(drawn[..., None].astype(np.float32), coords.coords,
-                                    np.asarray(coords.angle, np.float32))
-        return np.asarray(frame.rgb), coords, far, self._pixel_layers(frame, coords)
+            bank = self.renderer.grow_bank(drawn[..., None].astype(np.float32), coords.coords,
+                                           np.asarray(coords.angle, np.float32))
+        return np.asarray(frame.rgb), coords, far, self._pixel_layers(frame, coords), bank
 
     def _pixel_layers(self, frame, coords) -> tuple:
         """The input layers with their signed CoCs and PSF coordinates (pixels a layer does not
@@ -119,11 +120,11 @@ class SpreadletPass(RuntimePass):
         return pixels, per_layer
 
     def __call__(self, prepared):
-        rgb, coords, far, layered = prepared
+        rgb, coords, far, layered, bank = prepared
         if layered is None:
             spread = rgb if coords.gain is None else rgb * coords.gain[..., None]
             image, t = self.renderer.render(spread, coords.coords, self.method, angle=coords.angle,
-                                            bank_checked=self.method == "spreadlets")
+                                            bank_checked=self.method == "spreadlets", bank_laplacian=bank)
             if coords.receive is not None:
                 image = image * coords.receive[..., None]
             if coords.direct is not None:   # the unscattered light, exact per pixel (host work)
@@ -134,7 +135,8 @@ class SpreadletPass(RuntimePass):
         else:
             pixels, per_layer = layered
             splatter = SpreadletLayerSplatter(self.renderer, self.method, per_layer,
-                                              bank_checked=self.method == "spreadlets" and not self.layered_input)
+                                              bank_checked=self.method == "spreadlets" and not self.layered_input,
+                                              bank_laplacian=bank)
             image, info = render_layers(splatter, pixels, self.layers, soft=self.soft_layers)
             device_ms, transfer_ms = info["device_ms"], info["transfer_ms"]
             counts = dict(splatter.counts, pixels=int(rgb.shape[0] * rgb.shape[1]),

@@ -41,14 +41,16 @@ class SpreadletLayerSplatter:
     bank_checked : bool
         The caller grew the renderer's angle bank for every pixel any layer draws
         (:meth:`~runtime_cl.spreadlets.renderer.Renderer.grow_bank`, as the spreadlet passes do
-        once per frame); default False: each layer's render checks it.
+        once per frame); default False: each layer's render checks it. ``bank_laplacian``: the
+        choice that returned (the bank the layers draw from).
     """
 
-    def __init__(self, renderer, method: str, coords: list, bank_checked: bool = False):
+    def __init__(self, renderer, method: str, coords: list, bank_checked: bool = False,
+                 bank_laplacian: bool | None = None):
         from runtime_cl.passes.polygon import builtin_splatter
 
         self.renderer, self.method, self.coords = renderer, method, list(coords)
-        self.bank_checked = bool(bank_checked)
+        self.bank_checked, self.bank_laplacian = bool(bank_checked), bank_laplacian
         self.blur_splatter = builtin_splatter(BLUR_SHAPE, renderer.device)
         self.counts = {"spreadlets": 0, "dense_pixels": 0, "highlights": 0}
         # how far a pixel's splat can land from it, turned or not (+1: the bilinear share)
@@ -62,7 +64,7 @@ class SpreadletLayerSplatter:
                 {"device_ms": 0.0, "transfer_ms": 0.0}
         crop, t = self.renderer.render(image[window], coords[window], self.method,
                                        angle=None if angle is None else angle[window],
-                                       bank_checked=self.bank_checked)
+                                       bank_checked=self.bank_checked, bank_laplacian=self.bank_laplacian)
         # the layer's pixels and every splat they reach, placed in a zero frame (pages outside the
         # window are not touched here)
         out = np.zeros(image.shape[:2] + crop.shape[2:], np.float32)

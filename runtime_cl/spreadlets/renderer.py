@@ -109,7 +109,7 @@ class Renderer:
             self._bank = AngleBank(self.db)
         return self._bank
 
-    def grow_bank(self, colour, coords, angle) -> None:
+    def grow_bank(self, colour, coords, angle) -> bool | None:
         """With ``spreadlet_rotation="bank"``: rebuild the bank (and drop the splatters holding
         it) when this frame (float32 arrays as :meth:`render` takes them) draws bank entries the
         bank has not built, or is cheaper with(out) Laplacian entries than the bank is
@@ -117,9 +117,15 @@ class Renderer:
         (cell, angle) its frames draw -- on whirl 8.8 k of 60.5 k -- with the cells and angle
         indices of the splat kernel's own map (device cells, :func:`entry_of`'s float32 rounding),
         and holds the union over frames. :meth:`render` calls it unless told the caller did
-        (``bank_checked``): it is per-pixel work (~50 ms at 1024^2)."""
+        (``bank_checked``): it is per-pixel work (~50 ms at 1024^2).
+
+        The renderer keeps one bank per choice (with and without Laplacian entries), each the
+        union of the frames that chose it. Returns the choice, ``laplacian`` (None: no bank
+        applies): a caller that grows several frames before rendering them passes each frame's
+        choice to :meth:`render` (``bank_laplacian``), so it draws from the bank that holds its
+        entries."""
         if self.spreadlet_rotation != "bank" or self.rotation_invariant:
-            return
+            return None
         lit = np.any(colour != 0, axis=2)
         cell = self._cells(coords[lit])
         need, laplacian = bank_needs(self.db, colour, coords, angle, self.ddb.dense_n, lit_cells=cell)
@@ -137,13 +143,22 @@ class Renderer:
         entries[base[cc] + kk] = True
         if bank is not None and bank.laplacian == laplacian:
             if np.array_equal(bank.cells, need) and not np.any(entries & ~bank.built):
-                return
+                return laplacian
             # the entries built so far, in the new layout (a quarter-turn cell's k of 4 is k K_i / 4)
             i = np.repeat(np.arange(self.db.n_samples), bank.angles)[bank.built]
             k = (np.arange(bank.n_entries) - np.repeat(bank.base, bank.angles))[bank.built]
             entries[base[i] + k * K[i] // bank.angles[i]] = True
         self._bank = AngleBank(self.db, cells=need, laplacian=laplacian, entries=entries)
         self._wrappers = {k: v for k, v in self._wrappers.items() if bank is None or getattr(v, "bank", None) is not bank}
+        return laplacian
+
+    def _use_bank(self, laplacian: bool) -> None:
+        """Make the bank of this choice (built by :meth:`grow_bank`) the current one."""
+        if self._bank is None or self._bank.laplacian == laplacian:
+            return
+        if self._spare_bank is None or self._spare_bank.laplacian != laplacian:
+            raise RuntimeError(f"no angle bank with laplacian={laplacian}: grow_bank chose it for no frame")
+        self._bank, self._spare_bank = self._spare_bank, self._bank
 
     def _cells(self, coords) -> np.ndarray:
         """The cells of PSF coordinates ((m, ns) float32) as the splat kernel maps them."""
@@ -177,7 +192,8 @@ class Renderer:
                              "give every pixel a finite angle in radians (0: no rotation)")
         return a
 
-    def render(self, colour, coords, method: str = "spreadlets", angle=None, bank_checked: bool = False) -> tuple:
+    def render(self, colour, coords, method: str = "spreadlets", angle=None, bank_checked: bool = False,
+               bank_laplacian: bool | None = None) -> tuple:
         """Render one image.
 
         Parameters
@@ -203,6 +219,9 @@ class Renderer:
         bank_checked : bool
             The caller passed this frame to :meth:`grow_bank` (the spreadlet passes do, in their
             ``prepare``); default False: :meth:`render` does.
+        bank_laplacian : bool, optional
+            With ``bank_checked``: the choice :meth:`grow_bank` returned for this frame, whose bank
+            it draws from; default None: the current bank (that of the last frame grown).
 
         Returns
         -------
@@ -252,6 +271,8 @@ class Renderer:
         if rotate and not half and METHODS[method].splats_spreadlets and self.spreadlet_rotation == "bank":
             if not bank_checked:
                 self.grow_bank(lit, coords, angle)
+            elif bank_laplacian is not None:
+                self._use_bank(bank_laplacian)
         wrapper = self._wrapper(method, ch, rotate, half)
         compile_ms = sum(b.ms for b in self.device.builds[builds_before:])
 

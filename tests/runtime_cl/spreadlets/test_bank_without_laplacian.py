@@ -108,3 +108,19 @@ def test_the_renderer_rebuilds_the_bank_when_the_choice_changes():
                                                                        bank_checked=True)
         np.testing.assert_array_equal(image, want)
     assert banks[0] is banks[3] and banks[1] is banks[2] and banks[0] is not banks[1]
+
+
+def test_frames_grown_together_render_from_their_own_choice():
+    """A caller that grows several frames before rendering them (the stochastic passes' slots)
+    renders each from the bank of the choice its growth returned: as a renderer that saw that
+    frame alone (bitwise), although a later frame chose otherwise."""
+    _, lap = databases(np.random.default_rng(25), fast=(), row_fast=())
+    coords, angle, full, few, _, _ = lone_disc_frames(lap)
+    r = Renderer(lap, spreadlet_rotation="bank")
+    choices = [r.grow_bank(colour, coords, angle) for colour in (few, full)]
+    assert choices == [False, True]
+    for colour, choice in zip((few, full), choices):
+        image, _ = r.render(colour, coords, "spreadlets", angle=angle, bank_checked=True, bank_laplacian=choice)
+        alone, _ = Renderer(lap, spreadlet_rotation="bank").render(colour, coords, "spreadlets", angle=angle)
+        np.testing.assert_array_equal(image, alone)
+    assert Renderer(lap, spreadlet_rotation="bilinear").grow_bank(few, coords, angle) is None

@@ -97,6 +97,12 @@ DESCRIPTIONS = {
                  "splatlab.camera header). The reference's seeded passes run here, in --workers N local "
                  "processes or on a Dask cluster (--scheduler), each cached so an interrupted render "
                  "resumes; both are cached by a hash of the scene and the rendering code.",
+    "stochastic": "Path-trace a stochastic (1-spp) labelled-pixel EXR of a scene (LSR18 6.2, Table 3's "
+                  "input): one camera ray per pixel through the scene's own thin lens (round, iris or "
+                  "shaped aperture) or pinhole, each pixel with its own lens sample and shutter time, "
+                  "written as the channels lens.U, lens.V and time beside R, G, B, A, Z (and motion.X, "
+                  "motion.Y for a moving scene). `splatlab render OUT.exr --method stochastic_spreadlets` "
+                  "(or stochastic_splat) reconstructs it. Cached by a hash of the scene and the code.",
     "render": "Render a labelled-pixel EXR (from `splatlab reference` or any renderer that writes R, G, B, "
               "A, Z and a splatlab.camera header) with a spreadlet database on the OpenCL device, or "
               "with --method polygon exactly with a flat polygonal aperture (MHU21; no database): each "
@@ -157,6 +163,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out-dir", type=Path, help="write reference.exr and input.exr here "
                    "(default reports/<scene>/)")
     _add_where(p, "the reference's render passes")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+
+    p = sub.add_parser("stochastic", description=DESCRIPTIONS["stochastic"],
+                       help="path-trace a 1-spp stochastic input with lens samples and times")
+    _add_scene(p)
+    p.add_argument("--index", type=_int_or_text, default=0, metavar="N",
+                   help="which independent image (its own seeds; default 0): average N of them for N spp")
+    p.add_argument("--shading-spp", type=_int_or_text, default=1, metavar="S",
+                   help="paths traced from each pixel's one camera ray (default 1: a 1-spp path trace; "
+                        "more: one visibility sample with converged shading, a stochastic rasterizer's input)")
+    p.add_argument("--out", type=Path, help="output EXR (default reports/<scene>/stochastic-<N>.exr)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
     p = sub.add_parser("render", description=DESCRIPTIONS["render"], help="render a labelled-pixel EXR with a spreadlet database")

@@ -112,6 +112,23 @@ def cmd_reference(args) -> int:
     return 0
 
 
+def cmd_stochastic(args) -> int:
+    from .exr_io import write_labelled
+    from .pipeline import default_out_dir, load_scene_and_plan, stochastic_input
+
+    for flag, value, low, high in (("--index", args.index, 0, 2 ** 31 - 1), ("--shading-spp", args.shading_spp, 1, 4096)):
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise UserError(f"{flag} {value}: give an integer in [{low}, {high}]")
+    scene, _ = load_scene_and_plan(args.scene)
+    out = args.out or default_out_dir(scene) / f"stochastic-{args.index}.exr"
+    check_output(out, "--out", (args.scene,), ".exr")
+    image = stochastic_input(scene, args.index, args.shading_spp, progress=not args.quiet)
+    write_labelled(out, image)
+    print(f"stochastic input ({scene.width}x{scene.height}, image {args.index}, {args.shading_spp} shading "
+          f"path(s) per pixel, channels {', '.join(sorted(image.extra))}): {out}")
+    return 0
+
+
 def _render_aperture(args, image):
     """The rectified polygon a pass that draws the aperture gets: ``--aperture NAME``, else the
     camera header's iris, else the hexagon."""

@@ -170,6 +170,30 @@ def _reference(scene: Scene, plan: Plan, image, path: Path, executor: Executor, 
     return reference, round(time.perf_counter() - t, 2), adaptive
 
 
+def stochastic_input(scene: Scene, index: int = 0, shading_spp: int = 1, image: LabelledImage | None = None,
+                     progress: bool = True) -> LabelledImage:
+    """The ``index``-th independent 1-spp stochastic image of ``scene`` (:mod:`lab.reference.
+    stochastic`: lens sample and shutter time per pixel; ``shading_spp`` paths per camera ray),
+    cached beside its input by a hash of that module. A moving scene's sub-frames follow the
+    longest motion of its labelled input: ``image``, or the cached input (rendered if missing)."""
+    from .motion import scene_moves
+    from .reference.stochastic import check_camera, render_stochastic
+
+    check_camera(scene)
+    longest = 0.0
+    if scene_moves(scene):
+        image = image if image is not None else input_only(scene, progress)
+        flow = [image.extra[c] for c in ("motion.X", "motion.Y") if c in image.extra]
+        longest = float(np.hypot(*flow).max()) if flow else 0.0
+    folder = render_folder(scene)
+    path = folder / f"stochastic-{index}-shade{shading_spp}-{code_digest(('lab.reference.stochastic',))[:12]}.exr"
+    if not path.exists():
+        if progress:
+            print(f"  stochastic input {index} of {scene.name}", flush=True)
+        write_labelled(path, render_stochastic(scene, index, longest, shading_spp))
+    return read_labelled(path)
+
+
 def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool = False,
                     progress: bool = True, executor: Executor | None = None) -> dict:
     """Precompute (or reuse) every PSF model the plan lists, where ``executor`` says (default:

@@ -36,7 +36,7 @@ from .backend import mitsuba
 from .motion import Animator, project, subframes_for
 from .render import load
 
-__all__ = ["lens_channels", "render_stochastic", "stochastic_seed", "trace_samples"]
+__all__ = ["check_camera", "lens_channels", "render_stochastic", "stochastic_seed", "trace_samples"]
 
 _STREAM = 0x5707    # the stochastic input's seed stream (apart from the reference and input streams)
 
@@ -46,7 +46,8 @@ def stochastic_seed(scene: Scene, index: int) -> np.random.SeedSequence:
     return np.random.SeedSequence([scene.render.seed, _STREAM, index])
 
 
-def _check_camera(scene: Scene) -> None:
+def check_camera(scene: Scene) -> None:
+    """A :class:`~lab.errors.UserError` unless the scene's camera can write a stochastic input."""
     cam = scene.camera
     if cam.model in ("pinhole", "thin"):
         return
@@ -120,7 +121,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     shading_spp : int
         Paths traced from each pixel's camera ray (see the module docstring).
     """
-    _check_camera(scene)
+    check_camera(scene)
     if isinstance(shading_spp, bool) or not isinstance(shading_spp, int) or not 1 <= shading_spp <= 4096:
         raise UserError(f"shading_spp = {shading_spp!r}: give an integer in [1, 4096] (paths per camera ray)")
     mi = mitsuba()

@@ -38,8 +38,6 @@ import numpy as np
 
 from runtime_cl.atomic_file import atomic_path, check_output_dir
 
-from ..cache_key import code_digest
-from ..exr_io import read_labelled, write_labelled
 from .html import STYLE
 from .machine import machine_info
 from .metrics import TONEMAP, psnr, ssim, tonemap
@@ -94,28 +92,6 @@ def scene_at(scene, width: int | None, reference_spp: int | None = None):
     return replace(scene, info=replace(scene.info, resolution=(width, height)))
 
 
-def stochastic_inputs(scene, image, count: int, progress: bool = True, shading_spp: int = 1) -> list:
-    """``count`` independent 1-spp stochastic images of ``scene`` (cached beside its input);
-    ``shading_spp`` paths per camera ray (:mod:`lab.reference.stochastic`)."""
-    from ..pipeline import render_folder
-    from ..reference.stochastic import render_stochastic
-
-    folder = render_folder(scene)
-    key = code_digest(("lab.reference.stochastic",))[:12]
-    flow = [image.extra[c] for c in ("motion.X", "motion.Y") if c in image.extra]
-    longest = float(np.hypot(*flow).max()) if flow else 0.0
-    out = []
-    for i in range(count):
-        path = folder / f"stochastic-{i}-shade{shading_spp}-{key}.exr"
-        if not path.exists():
-            if progress:
-                print(f"  stochastic input {i} of {scene.name}", flush=True)
-            folder.mkdir(parents=True, exist_ok=True)
-            write_labelled(path, render_stochastic(scene, i, longest, shading_spp))
-        out.append(read_labelled(path))
-    return out
-
-
 def sizing_image(image, inputs):
     """What the databases are sized by: the labelled input and the stochastic ones stacked
     (same width): the stochastic samples also see what the pinhole does not (through the lens
@@ -146,7 +122,7 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
     from runtime_cl.psf.database import SpreadletDatabase
     from runtime_cl.psf.far_field import MODEL as FAR_FIELD
 
-    from ..pipeline import build_databases, inputs_and_reference
+    from ..pipeline import build_databases, inputs_and_reference, stochastic_input
     from ..plan import make_plan
     from ..psf_settings import check_tables
     from ..runtime_passes import runtime_camera
@@ -156,7 +132,7 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
     check_tables(scene, plan.psf_models)
     image, reference, info = inputs_and_reference(scene, plan, progress, second=True)
     t0 = time.perf_counter()
-    inputs = stochastic_inputs(scene, image, 4 if spp4 else 1, progress, shading_spp)
+    inputs = [stochastic_input(scene, i, shading_spp, image, progress) for i in range(4 if spp4 else 1)]
     input_s = round(time.perf_counter() - t0, 2)
     dbs = build_databases(scene, plan, sizing_image(image, inputs), progress=progress)
     dbs = {m: SpreadletDatabase.load(r.path, expect_model=m) for m, r in dbs.items() if m != FAR_FIELD}

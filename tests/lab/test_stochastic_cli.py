@@ -90,3 +90,29 @@ def test_bad_set(work, capfd, item, needles):
     assert not (work / "o.exr").exists()
     for needle in needles:
         assert needle in err[0], (needle, err[0])
+
+
+@pytest.mark.parametrize("args, needles", [
+    (["--index", "-1"], ["--index -1", "integer in [0,"]),
+    (["--shading-spp", "0"], ["--shading-spp 0", "integer in [1, 4096]"]),
+    (["--shading-spp", "many"], ["--shading-spp many"]),
+    (["--out", "SCENE"], ["this command's input", "choose another output name"]),
+])
+def test_bad_stochastic_command(work, capfd, args, needles):
+    from lab.paths import SCENES
+
+    scene = str(SCENES / "tiny.toml")
+    code = main(["stochastic", scene, "--quiet"] + [scene if a == "SCENE" else a for a in args])
+    err = capfd.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, (code, err)
+    for needle in needles:
+        assert needle in err[0], (needle, err[0])
+
+
+def test_stochastic_command_refuses_the_thick_lens(work, capfd):
+    from lab.paths import SCENES
+
+    code = main(["stochastic", str(SCENES / "tiny_rain.toml"), "--out", str(work / "s.exr"), "--quiet"])
+    err = capfd.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "this camera is 'thick'" in err[0], err
+    assert not (work / "s.exr").exists()

@@ -1,0 +1,26 @@
+"""``nonzero_box``: the box of an image's non-zero pixels, against numpy's argwhere."""
+import numpy as np
+import pytest
+
+from runtime_cl.layers.composite import nonzero_box
+
+
+@pytest.mark.parametrize("channels", [None, 1, 4])
+@pytest.mark.parametrize("grow", [0, 3, 50])
+def test_box_of_the_nonzero_pixels(channels, grow):
+    rng = np.random.default_rng(grow + (channels or 0))
+    for _ in range(20):
+        shape = (int(rng.integers(1, 40)), int(rng.integers(1, 40))) + (() if channels is None else (channels,))
+        a = np.zeros(shape, np.float32)
+        for _ in range(int(rng.integers(0, 4))):
+            a[(rng.integers(0, shape[0]), rng.integers(0, shape[1])) + (() if channels is None else
+                                                                          (rng.integers(0, channels),))] = \
+                rng.choice([-2.5, 1e-30, 7.0])   # negative and tiny values count
+        box = nonzero_box(a, grow)
+        hits = np.argwhere(a.reshape(shape[0], shape[1], -1).any(axis=2))
+        if not len(hits):
+            assert box is None
+            continue
+        (y0, x0), (y1, x1) = hits.min(axis=0), hits.max(axis=0) + 1
+        want = (slice(max(y0 - grow, 0), min(y1 + grow, shape[0])), slice(max(x0 - grow, 0), min(x1 + grow, shape[1])))
+        assert box == want

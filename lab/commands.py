@@ -116,7 +116,8 @@ def cmd_stochastic(args) -> int:
     from .exr_io import write_labelled
     from .pipeline import default_out_dir, load_scene_and_plan, stochastic_input
 
-    for flag, value, low, high in (("--index", args.index, 0, 2 ** 31 - 1), ("--shading-spp", args.shading_spp, 1, 4096)):
+    for flag, value, low, high in (("--index", args.index, 0, 2 ** 31 - 1),
+                                   ("--shading-spp", args.shading_spp, 1, 4096)):
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise UserError(f"{flag} {value}: give an integer in [{low}, {high}]")
     scene, _ = load_scene_and_plan(args.scene)

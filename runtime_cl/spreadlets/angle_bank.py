@@ -34,9 +34,8 @@ from runtime_cl.errors import InputError
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, dense_row_spans, half_turn_rows
 
-__all__ = ["ANGLE_ERROR_PX", "LAPLACIAN_PLANE_ADDS", "AngleBank", "angle_counts", "angles_for_reach", "bank_needs", "cell_reach",
-           "entry_of", "turned_dense",
-           "turned_spreadlets"]
+__all__ = ["ANGLE_ERROR_PX", "LAPLACIAN_PLANE_ADDS", "AngleBank", "angle_counts", "angles_for_reach",
+           "bank_needs", "cell_reach", "entry_of", "turned_dense", "turned_spreadlets"]
 
 # Largest displacement (px) of a PSF's farthest point by the angle rounding; see the module docstring
 # and README ("Where a spreadlet frame's time goes") for the SSIM it costs on whirl. At 0.5 px the

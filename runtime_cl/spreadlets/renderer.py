@@ -149,7 +149,8 @@ class Renderer:
             k = (np.arange(bank.n_entries) - np.repeat(bank.base, bank.angles))[bank.built]
             entries[base[i] + k * K[i] // bank.angles[i]] = True
         self._bank = AngleBank(self.db, cells=need, laplacian=laplacian, entries=entries)
-        self._wrappers = {k: v for k, v in self._wrappers.items() if bank is None or getattr(v, "bank", None) is not bank}
+        self._wrappers = {k: v for k, v in self._wrappers.items()
+                          if bank is None or getattr(v, "bank", None) is not bank}
         return laplacian
 
     def _use_bank(self, laplacian: bool) -> None:

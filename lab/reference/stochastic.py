@@ -80,7 +80,8 @@ def lens_channels(scene: Scene, lens: np.ndarray) -> tuple:
         "polygon", blades=iris.blades, rotation_deg=iris.rotation_deg, rounding=iris.rounding)
     p = shape.sample(Array2f(Float(lens[:, 0]), Float(lens[:, 1])))
     u, v = inverse_concentric(np.asarray(p.x, np.float64), -np.asarray(p.y, np.float64))
-    return np.minimum(u.astype(np.float32), top), np.minimum(v.astype(np.float32), top)
+    # a point on the rim (a polygon's corner) may lie a rounding error outside the unit disc
+    return tuple(np.clip(x.astype(np.float32), np.float32(0.0), top) for x in (u, v))
 
 
 def _flow(scene: Scene, points, t_frac, shape_idx) -> np.ndarray:

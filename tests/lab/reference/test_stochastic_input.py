@@ -114,3 +114,28 @@ def test_motion_recentring_reaches_the_mid_shutter_projection():
     assert moved.sum() > 20 and translating[moved].sum() > 5
     assert err[hit & translating].max() < 5e-3   # float32 moved vertices and channels: <= 2.2e-3 px measured
     assert np.median(err[moved]) < 0.1                   # arcs of <= 45 degrees over the shutter
+
+
+@pytest.mark.parametrize("aperture", [{"shape": "heart"}, {"blades": 5, "rotation_deg": 20.0}, {"blades": 4}])
+def test_lens_channels_hold_the_shape_point_in_film_axes(aperture):
+    """lens.U, lens.V of a shaped lens lie in [0, 1) -- corners on the unit circle included, where
+    rounding can put the point just outside the disc -- and map back to the shape's point (x, y),
+    mirrored to the film's y down."""
+    from drjit.llvm import Array2f, Float
+
+    from lab.optics.aperture import make_aperture
+    from lab.reference.stochastic import lens_channels
+
+    scene = _tiny(aperture=aperture)
+    rng = np.random.default_rng(3)
+    top = np.nextafter(np.float32(1), np.float32(0))
+    corners = [[0, 0], [0, top], [top, 0], [top, top], [0.5, 0.5]]
+    lens = np.concatenate([rng.random((4000, 2)), corners]).astype(np.float32)
+    u, v = lens_channels(scene, lens)
+    assert u.dtype == v.dtype == np.float32 and (u >= 0).all() and (u < 1).all() and (v >= 0).all() and (v < 1).all()
+    shaped, iris = scene.camera.shaped(), scene.camera.iris()
+    shape = shaped.aperture() if shaped is not None else make_aperture(
+        "polygon", blades=iris.blades, rotation_deg=iris.rotation_deg, rounding=iris.rounding)
+    p = shape.sample(Array2f(Float(lens[:, 0]), Float(lens[:, 1])))
+    dx, dy = concentric_disc(u, v)
+    np.testing.assert_allclose(np.c_[dx, dy], np.c_[np.asarray(p.x), -np.asarray(p.y)], atol=1e-5)

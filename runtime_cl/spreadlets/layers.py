@@ -96,4 +96,3 @@ class SpreadletLayerSplatter:
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.blur_splatter.render(image, float(radius_px))
         return out, {"device_ms": info["kernel_ms"], "transfer_ms": info["transfer_ms"]}
-

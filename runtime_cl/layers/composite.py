@@ -63,8 +63,9 @@ from typing import Protocol
 import numpy as np
 
 from runtime_cl.errors import InputError
+from runtime_cl.masks import nonzero_box, nonzero_pixels
 
-__all__ = ["LayerSplatter", "PixelLayer", "check_soft", "layer_edges", "nonzero_box", "render_layers"]
+__all__ = ["LayerSplatter", "PixelLayer", "check_soft", "layer_edges", "render_layers"]
 
 # Least known fraction a hole fill trusts: with less known around it fades out instead of
 # blowing up a few stray splats (a hard cut-off would draw its outline through the layers in front).
@@ -146,7 +147,7 @@ def _check_count(n_layers) -> int:
 
 
 def _live(layer: PixelLayer) -> np.ndarray:
-    return (layer.alpha > 0) | np.any(layer.rgb != 0, axis=2)
+    return nonzero_pixels(layer.rgb, layer.alpha > 0)
 
 
 def layer_edges(layers, n_layers: int) -> np.ndarray:
@@ -299,23 +300,6 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
             "transfer_ms": sum(x["transfer_ms"] for x in per_layer),
             "wall_ms": (time.perf_counter() - start) * 1e3}
     return out.astype(np.float32), info
-
-
-def nonzero_box(a: np.ndarray, grow: int = 0) -> tuple | None:
-    """(rows, cols) slices of the box of the non-zero pixels of ``a`` ((H, W) or (H, W, K)),
-    widened by ``grow`` on every side and clipped to the frame; None if every pixel is zero.
-    ``any`` along contiguous memory, the columns only over the box's rows (np.abs(a).max(...)
-    made a full-frame copy: 4-5 ms a layer at 1024^2, this ~1.3)."""
-    h, w = a.shape[:2]
-    flat = a.reshape(h, -1)
-    rows = np.flatnonzero(flat.any(axis=1))
-    if not len(rows):
-        return None
-    r0, r1 = int(rows[0]), int(rows[-1]) + 1
-    cols = flat[r0:r1].any(axis=0)
-    cols = np.flatnonzero(cols.reshape(w, -1).any(axis=1) if a.ndim == 3 else cols)
-    return (slice(max(r0 - grow, 0), min(r1 + grow, h)),
-            slice(max(int(cols[0]) - grow, 0), min(int(cols[-1]) + 1 + grow, w)))
 
 
 def _support(resolved: np.ndarray, own) -> tuple | None:

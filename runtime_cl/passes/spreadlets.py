@@ -21,6 +21,7 @@ from runtime_cl.coords.maps import needs_motion, psf_coords
 from runtime_cl.errors import InputError
 from runtime_cl.layers.composite import PixelLayer, check_soft, render_layers
 from runtime_cl.integrate import get_integrator
+from runtime_cl.masks import nonzero_pixels
 from runtime_cl.passes.registry import RuntimePass, integrating_passes, register_pass
 from runtime_cl.psf.far_field import FarField
 from runtime_cl.spreadlets.layers import SpreadletLayerSplatter
@@ -87,7 +88,7 @@ class SpreadletPass(RuntimePass):
                              "pixel, which depth layers do not composite; render the flat image (layers = 1)")
         if coords.angle is not None and self.method == "spreadlets" and not self.layered_input:
             # one bank for every layer of the frame: the pixels any layer draws (colour or coverage)
-            drawn = np.any(np.asarray(frame.rgb) != 0, axis=2) | (frame.coverage() != 0)
+            drawn = nonzero_pixels(np.asarray(frame.rgb), frame.coverage() != 0)
             bank = self.renderer.grow_bank(drawn[..., None].astype(np.float32), coords.coords,
                                            np.asarray(coords.angle, np.float32))
         return np.asarray(frame.rgb), coords, far, self._pixel_layers(frame, coords), bank
@@ -111,7 +112,7 @@ class SpreadletPass(RuntimePass):
                                  f"{frame.shape[0]}x{frame.shape[1]}; every layerN.* layer must have the "
                                  "image's size")
             rgb, alpha = np.asarray(x.rgb, np.float32), x.coverage()
-            live = (alpha > 0) | np.any(rgb != 0, axis=2)
+            live = nonzero_pixels(rgb, alpha > 0)
             depth = np.where(live, x.depth, frame.depth)
             c = psf_coords(self.camera, depth, self.db)
             pixels.append(PixelLayer(rgb, alpha, self.camera.coc_radius_px(depth, frame.shape[1])

@@ -31,6 +31,7 @@ import math
 import numpy as np
 
 from runtime_cl.errors import InputError
+from runtime_cl.masks import nonzero_pixels
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.psf.upload import KIND_DENSE, KIND_LAPLACIAN, KIND_ROWS, dense_row_spans, half_turn_rows
 
@@ -289,7 +290,7 @@ def bank_needs(db: SpreadletDatabase, colour: np.ndarray, coords: np.ndarray, an
     :class:`~runtime_cl.spreadlets.renderer.Renderer` takes the splat kernel's own map on the
     device); default the grid's numpy map.
     """
-    lit = np.any(colour != 0, axis=2)
+    lit = nonzero_pixels(colour)
     cells = np.zeros(db.n_samples, bool)
     if not lit.any():
         return cells, False

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.errors import InputError
-from runtime_cl.layers.composite import nonzero_box
+from runtime_cl.masks import nonzero_box
 
 __all__ = ["SpreadletLayerSplatter"]
 

@@ -27,6 +27,7 @@ from runtime_cl.spreadlets.gather import GatherFilter
 from runtime_cl.spreadlets.highlights import HDR_RATIO, bright_pixels, splat_highlights
 from runtime_cl.integrate import DEFAULT_INTEGRATOR, get_integrator
 from runtime_cl.integrate.crop import integrate_support
+from runtime_cl.masks import nonzero_pixels
 from runtime_cl.psf.grid_cl import PsfIndexKernel, check_coords
 from runtime_cl.spreadlets.angle_bank import AngleBank, angle_counts, bank_needs, entry_of
 from runtime_cl.spreadlets.splat import DEFAULT_SPREADLET_ROTATION, RUN_MAX, SPREADLET_ROTATIONS, TileSplatter, half_turns
@@ -126,7 +127,7 @@ class Renderer:
         entries."""
         if self.spreadlet_rotation != "bank" or self.rotation_invariant:
             return None
-        lit = np.any(colour != 0, axis=2)
+        lit = nonzero_pixels(colour)
         cell = self._cells(coords[lit])
         need, laplacian = bank_needs(self.db, colour, coords, angle, self.ddb.dense_n, lit_cells=cell)
         if self._bank is not None and self._bank.laplacian != laplacian:

@@ -1,8 +1,8 @@
-"""``nonzero_box``: the box of an image's non-zero pixels, against numpy's argwhere."""
+"""``runtime_cl.masks``: an image's non-zero pixels and their box, against plain numpy."""
 import numpy as np
 import pytest
 
-from runtime_cl.layers.composite import nonzero_box
+from runtime_cl.masks import nonzero_box, nonzero_pixels
 
 
 @pytest.mark.parametrize("channels", [None, 1, 4])
@@ -24,3 +24,16 @@ def test_box_of_the_nonzero_pixels(channels, grow):
         (y0, x0), (y1, x1) = hits.min(axis=0), hits.max(axis=0) + 1
         want = (slice(max(y0 - grow, 0), min(y1 + grow, shape[0])), slice(max(x0 - grow, 0), min(x1 + grow, shape[1])))
         assert box == want
+
+
+@pytest.mark.parametrize("channels", [1, 3, 4])
+def test_nonzero_pixels_is_any_channel(channels):
+    rng = np.random.default_rng(channels)
+    a = np.where(rng.random((17, 23, channels)) < 0.7, 0.0, rng.choice([-1.0, 1e-38, 3.0], (17, 23, channels)))
+    a = a.astype(np.float32)
+    want = np.any(a != 0, axis=2)
+    np.testing.assert_array_equal(nonzero_pixels(a), want)
+    seed = rng.random((17, 23)) < 0.1
+    out = seed.copy()
+    assert nonzero_pixels(a, out) is out
+    np.testing.assert_array_equal(out, want | seed)

@@ -1,0 +1,38 @@
+"""Masks of images: which pixels are non-zero, and the box they lie in.
+
+numpy's ``np.any(a != 0, axis=2)`` reduces along the short, strided channel axis: 18 ms for a
+1128^2 RGB image here, where OR-ing the channels' planes takes 3 ms. These helpers are used on
+every frame of the spreadlet passes (the angle bank's lit pixels, a depth layer's box).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["nonzero_box", "nonzero_pixels"]
+
+
+def nonzero_pixels(a: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) bool: the pixels of ``a`` ((H, W, C)) with a non-zero channel, OR-ed into ``out``
+    (an (H, W) bool array, updated in place) if given."""
+    nz = a != 0
+    live = nz[..., 0].copy() if out is None else out
+    for c in range(0 if out is not None else 1, a.shape[2]):
+        live |= nz[..., c]
+    return live
+
+
+def nonzero_box(a: np.ndarray, grow: int = 0) -> tuple | None:
+    """(rows, cols) slices of the box of the non-zero pixels of ``a`` ((H, W) or (H, W, K)),
+    widened by ``grow`` on every side and clipped to the frame; None if every pixel is zero.
+    ``any`` along contiguous memory, the columns only over the box's rows (np.abs(a).max(...)
+    made a full-frame copy: 4-5 ms a layer at 1024^2, this ~1.3)."""
+    h, w = a.shape[:2]
+    flat = a.reshape(h, -1)
+    rows = np.flatnonzero(flat.any(axis=1))
+    if not len(rows):
+        return None
+    r0, r1 = int(rows[0]), int(rows[-1]) + 1
+    cols = flat[r0:r1].any(axis=0)
+    cols = np.flatnonzero(cols.reshape(w, -1).any(axis=1) if a.ndim == 3 else cols)
+    return (slice(max(r0 - grow, 0), min(r1 + grow, h)),
+            slice(max(int(cols[0]) - grow, 0), min(int(cols[-1]) + 1 + grow, w)))

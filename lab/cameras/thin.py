@@ -284,10 +284,22 @@ class ThinCamera(Camera):
                                                "runs through the stylized database"),),
         }
 
+    def aperture_params(self) -> dict | None:
+        """The lens's aperture as the reference sensor (:mod:`lab.reference.aperture_lens`) and the
+        stochastic input sample it: ``{"aperture": registered shape name, **its parameters}``
+        (:func:`lab.optics.aperture.make_aperture`); None for the round aperture."""
+        iris, shaped = self.iris(), self.shaped()
+        if shaped is not None:
+            return shaped.sensor_params()
+        if iris is not None:
+            return {"aperture": "polygon", "blades": iris.blades, "rotation_deg": iris.rotation_deg,
+                    "rounding": iris.rounding}
+        return None
+
     def mitsuba_sensor(self, sensor: dict) -> dict:
         """Mitsuba's ``thinlens`` (aperture radius f / 2N, planar focus distance), or with an iris
         or a stylized shape the Python sensor of :mod:`lab.reference.aperture_lens`."""
-        lens, iris, shaped = self.runtime_camera(), self.iris(), self.shaped()
+        lens, aperture = self.runtime_camera(), self.aperture_params()
         out = dict(sensor, type="thinlens", aperture_radius=lens.aperture_radius_m,
                    focus_distance=lens.focus_distance_m)
         if lens.tilted:   # Scheimpflug: the Python sensor of lab.reference.tilted_lens
@@ -296,12 +308,10 @@ class ThinCamera(Camera):
             del out["fov_axis"]   # the plugin's fov is horizontal
             return dict(out, type=register(), focal_length=lens.focal_length_mm / 1000.0,
                         tilt_x_deg=lens.sensor_tilt_deg[0], tilt_y_deg=lens.sensor_tilt_deg[1])
-        if iris is not None or shaped is not None:
+        if aperture is not None:
             from ..reference.aperture_lens import register
 
             del out["fov_axis"]   # the plugin's fov is horizontal
             out["type"] = register()
-            out.update(shaped.sensor_params() if shaped is not None else
-                       {"aperture": "polygon", "blades": iris.blades, "rotation_deg": iris.rotation_deg,
-                        "rounding": iris.rounding})
+            out.update(aperture)
         return out

@@ -67,17 +67,16 @@ def lens_channels(scene: Scene, lens: np.ndarray) -> tuple:
     (-x, y) of its shape's point (x, y) (lens plane, x right, y up): the film's (x, -y), mapped
     back to the square by the inverse concentric map.
     """
-    cam = scene.camera
-    iris, shaped = (cam.iris(), cam.shaped()) if cam.model == "thin" else (None, None)
+    params = scene.camera.aperture_params() if scene.camera.model == "thin" else None
     top = np.float32(np.nextafter(np.float32(1.0), np.float32(0.0)))
-    if iris is None and shaped is None:
+    if params is None:
         return np.minimum(1.0 - lens[:, 0], top), np.minimum(1.0 - lens[:, 1], top)
     from drjit.llvm import Array2f, Float
 
     from ..optics.aperture import make_aperture
 
-    shape = shaped.aperture() if shaped is not None else make_aperture(
-        "polygon", blades=iris.blades, rotation_deg=iris.rotation_deg, rounding=iris.rounding)
+    params = dict(params)
+    shape = make_aperture(params.pop("aperture"), **params)   # the sensor's own sampler
     p = shape.sample(Array2f(Float(lens[:, 0]), Float(lens[:, 1])))
     u, v = inverse_concentric(np.asarray(p.x, np.float64), -np.asarray(p.y, np.float64))
     # a point on the rim (a polygon's corner) may lie a rounding error outside the unit disc

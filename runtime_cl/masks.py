@@ -3,12 +3,13 @@
 numpy's ``np.any(a != 0, axis=2)`` reduces along the short, strided channel axis: 18 ms for a
 1128^2 RGB image here, where OR-ing the channels' planes takes 3 ms. These helpers are used on
 every frame of the spreadlet passes (the angle bank's lit pixels, a depth layer's box).
+A box is a (rows, cols) pair of slices with explicit starts and stops.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["nonzero_box", "nonzero_pixels"]
+__all__ = ["nonzero_box", "nonzero_pixels", "on_box", "union_box"]
 
 
 def nonzero_pixels(a: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -36,3 +37,23 @@ def nonzero_box(a: np.ndarray, grow: int = 0) -> tuple | None:
     cols = np.flatnonzero(cols.reshape(w, -1).any(axis=1) if a.ndim == 3 else cols)
     return (slice(max(r0 - grow, 0), min(r1 + grow, h)),
             slice(max(int(cols[0]) - grow, 0), min(int(cols[-1]) + 1 + grow, w)))
+
+
+def union_box(a: tuple, b: tuple | None) -> tuple:
+    """The smallest box holding the boxes ``a`` and ``b`` (None: ``a``)."""
+    if b is None:
+        return a
+    return (slice(min(a[0].start, b[0].start), max(a[0].stop, b[0].stop)),
+            slice(min(a[1].start, b[1].start), max(a[1].stop, b[1].stop)))
+
+
+def on_box(image: np.ndarray, box: tuple, outer: tuple) -> np.ndarray:
+    """``image`` (the pixels of ``box``) on the box ``outer`` that holds it, zero around it
+    (``image`` itself if the boxes are the same)."""
+    if box == outer:
+        return image
+    out = np.zeros((outer[0].stop - outer[0].start, outer[1].stop - outer[1].start) + image.shape[2:],
+                   image.dtype)
+    out[box[0].start - outer[0].start:box[0].stop - outer[0].start,
+        box[1].start - outer[1].start:box[1].stop - outer[1].start] = image
+    return out

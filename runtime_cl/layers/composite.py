@@ -38,8 +38,9 @@ coverage blurred by the single radius ``rho`` (no steps) relative to the known s
 ``alpha = min(1, max(g A, E / max(k, MIN_KNOWN)))``.
 
 Compositing. Back to front with "over" on premultiplied colours:
-``out = g C + (1 - alpha) out``. With one layer the result is the layer's plain splat; a layer
-with no live pixels changes nothing.
+``out = g C + (1 - alpha) out``, with the re-weighting, in one device pass over the box of what
+the layer drew (:mod:`runtime_cl.layers.over`; outside it the layer changes nothing). With one
+layer the result is the layer's plain splat; a layer with no live pixels changes nothing.
 
 Soft layering (``soft`` > 0, LSR18 section 6.2). A pixel whose CoC lies within ``soft / 2`` of a
 bin's width from an edge between two layers is drawn into both, its colour and coverage split
@@ -63,9 +64,11 @@ from typing import Protocol
 import numpy as np
 
 from runtime_cl.errors import InputError
-from runtime_cl.masks import nonzero_box, nonzero_pixels
+from runtime_cl.layers.over import over_kernel
+from runtime_cl.masks import nonzero_box, nonzero_pixels, on_box, union_box
 
-__all__ = ["LayerSplatter", "PixelLayer", "check_soft", "layer_edges", "render_layers"]
+__all__ = ["LayerPart", "LayerSplatter", "PixelLayer", "check_soft", "frame_image", "layer_edges",
+           "render_layers"]
 
 # Least known fraction a hole fill trusts: with less known around it fades out instead of
 # blowing up a few stray splats (a hard cut-off would draw its outline through the layers in front).
@@ -78,15 +81,40 @@ class LayerSplatter(Protocol):
     Both return their image and the OpenCL times ``{"device_ms": ..., "transfer_ms": ...}``.
     """
 
-    def splat_layer(self, images: list, cocs: list, sources: list) -> tuple:
-        """Splat and resolve the premultiplied ``(rgb, alpha)`` images, float32 (H, W, C + 1),
-        zero outside the layer, each pixel with the PSF of its signed CoC ``cocs[i]`` (H, W)
-        (px; 0 outside the layer); all of them into one canvas. ``sources[i]`` is the index of
-        the input layer image ``i`` comes from (a splatter whose PSFs depend on more than the CoC
-        looks its coordinates up by it). Returns float32 (H, W, C + 1)."""
+    def splat_layer(self, parts: list, shape: tuple) -> tuple:
+        """Splat and resolve a depth layer of an (H, W) frame (``shape``), given as its
+        :class:`LayerPart` s (one per input layer it draws from), all into one canvas; each pixel
+        with the PSF of its signed CoC. Returns ``(resolved, box, times)``: the premultiplied
+        ``(rgb, alpha)`` on ``box``, the (rows, cols) slices of the frame outside which the layer
+        drew nothing (float32, the box's (h, w, C + 1))."""
 
     def blur(self, image, radius_px: float) -> tuple:
         """``image`` (H, W) float32 blurred by the PSF of CoC radius ``radius_px`` everywhere."""
+
+    device: object   # the OpenCL device (runtime_cl.device.opencl.Device) the layers composite on
+
+
+@dataclass(frozen=True)
+class LayerPart:
+    """One input layer's share of a depth layer, on the box of its non-zero pixels.
+
+    ``box``: (rows, cols) slices of the frame; ``image``: premultiplied colour and coverage
+    (h, w, C + 1) on the box, zero outside the layer; ``coc``: signed CoC (h, w), px, 0 outside
+    the layer; ``source``: the index of the input layer (a splatter whose PSFs depend on more
+    than the CoC looks its coordinates up by it).
+    """
+
+    box: tuple
+    image: np.ndarray
+    coc: np.ndarray
+    source: int
+
+
+def frame_image(part: LayerPart, shape: tuple) -> tuple:
+    """``part``'s image and CoC in zero (H, W) frames (``shape``), for splatters that draw on the
+    whole frame."""
+    frame = (slice(0, shape[0]), slice(0, shape[1]))
+    return on_box(part.image, part.box, frame), on_box(part.coc, part.box, frame)
 
 
 @dataclass(frozen=True)
@@ -253,18 +281,15 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
     edges = _edges(layers, _check_count(n_layers), lives)
     weights = _hide_within_layers(layers, [_weights(x, edges, check_soft(soft), m) for x, m in zip(layers, lives)])
     h, w, c = layers[0].rgb.shape
-    # once per render, not per layer (full-frame host work is most of a layered frame's host time)
-    rgba = [np.concatenate([x.rgb, x.alpha[..., None]], axis=2) for x in layers]
     front = [_running_sums(wt) for wt in weights]   # each pixel's share of the layers 0 .. i
     out = np.zeros((h, w, c), np.float32)
-    ones = np.ones((h, w), np.float32)
+    over = over_kernel(splatter.device, c)
     per_layer = []
     for index in range(len(edges) - 2, -1, -1):                     # back to front
         members = [wt[index] for wt in weights]
         if not any(m.any() for m in members):
             continue
-        resolved, sites, stats = _splat_layer(splatter, layers, rgba, members)
-        colour, alpha = resolved[..., :c], resolved[..., c]
+        resolved, drawn, sites, stats = _splat_layer(splatter, layers, members)
         hidden = None
         nearer = sum(x.alpha * f[index - 1] for x, f in zip(layers, front)) if index else None
         if nearer is not None and np.any(nearer > 0):
@@ -275,43 +300,17 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
             own, times = splatter.blur(np.minimum(sites, 1.0), stats["radius_px"])
             _add(stats, times)
         # outside the box of what the layer drew (its splats, its own sites' blur) "over" leaves
-        # out as it is: the rest is done on that box alone (the same values, bitwise)
-        box = _support(resolved, own)
-        covered, total = 0.0, 0.0
-        if box is not None:
-            alpha, colour = alpha[box], colour[box]
-            known = ones[box] if hidden is None else 1.0 - hidden[box]
-            # the formulas of the module docstring, in place where a full-frame temporary was made
-            weight = np.maximum(known, alpha)
-            np.divide(1.0, np.clip(weight, MIN_KNOWN, 1.0, out=weight), out=weight)
-            opacity = np.minimum(np.multiply(alpha, weight), 1.0)
-            covered = float(opacity.sum())   # the coverage after re-weighting (before the own-sites bound)
-            if own is not None:
-                bound = np.clip(known, MIN_KNOWN, 1.0)
-                np.minimum(np.divide(own[box], bound, out=bound), 1.0, out=bound)
-                np.maximum(opacity, bound, out=opacity)
-            view = out[box]
-            view *= (1.0 - opacity)[..., None]   # "over", in place: the same products and sums
-            view += colour * weight[..., None]
-            total = float(np.minimum(alpha, 1.0).sum())
+        # out as it is: the device composites that box alone
+        box = union_box(drawn, None if own is None else nonzero_box(np.maximum(own, 0.0)))
+        covered, total, ms = over(out, np.ascontiguousarray(on_box(resolved, drawn, box)), box, hidden, own,
+                                  MIN_KNOWN)
+        stats["device_ms"] += ms
         per_layer.append(dict(stats, index=index, coverage_gain=covered / max(total, 1e-30)))
     info = {"edges": edges.tolist(), "layers": per_layer[::-1],
             "device_ms": sum(x["device_ms"] for x in per_layer),
             "transfer_ms": sum(x["transfer_ms"] for x in per_layer),
             "wall_ms": (time.perf_counter() - start) * 1e3}
     return out.astype(np.float32), info
-
-
-def _support(resolved: np.ndarray, own) -> tuple | None:
-    """(rows, cols) slices of the box outside which the resolved layer (H, W, C + 1) is zero and
-    ``own`` (H, W, or None) is <= 0 (where it is not positive the own-sites bound changes nothing),
-    or None if there is no such pixel."""
-    boxes = [b for b in (nonzero_box(resolved), None if own is None else nonzero_box(np.maximum(own, 0.0)))
-             if b is not None]
-    if not boxes:
-        return None
-    return (slice(min(b[0].start for b in boxes), max(b[0].stop for b in boxes)),
-            slice(min(b[1].start for b in boxes), max(b[1].stop for b in boxes)))
 
 
 def _running_sums(weights: np.ndarray) -> list:
@@ -328,28 +327,29 @@ def _add(stats: dict, times: dict) -> None:
     stats["transfer_ms"] += times["transfer_ms"]
 
 
-def _splat_layer(splatter: LayerSplatter, layers, rgba, members):
-    """One depth layer: resolved premultiplied colour and coverage (H, W, C + 1), the coverage of
-    its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``, times).
-    ``rgba``: each input layer's colour and coverage as one (H, W, C + 1) image. The layer's
-    images are made on the box of its members (zero outside: fresh zero pages), not the frame."""
+def _splat_layer(splatter: LayerSplatter, layers, members):
+    """One depth layer: resolved premultiplied colour and coverage (on its box), that box, the
+    coverage of its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``,
+    times). The layer's images are made on the box of each input layer's non-zero share."""
     c = layers[0].rgb.shape[2]
     h, w = members[0].shape
-    parts = [(i, x, m, b) for i, (x, m) in enumerate(zip(layers, members)) if (b := nonzero_box(m)) is not None]
-    images, cocs, radii, shares = [], [], [], []
-    for i, x, m, b in parts:
-        image = np.zeros((h, w, c + 1), np.float32)
-        np.multiply(rgba[i][b], m[b][..., None], out=image[b])
-        coc = np.zeros((h, w), np.float32)
-        coc[b] = np.where(m[b] > 0, x.coc[b], np.float32(0.0))
-        images.append(image)
-        cocs.append(coc)
-        radii.append(np.abs(coc[b]))
-        shares.append((image[b][..., c], m[b]))
-    resolved, times = splatter.splat_layer(images, cocs, [i for i, _, _, _ in parts])
+    parts, radii, shares = [], [], []
+    for i, (x, m) in enumerate(zip(layers, members)):
+        b = nonzero_box(m)
+        if b is None:
+            continue
+        share = m[b]
+        image = np.empty(share.shape + (c + 1,), np.float32)
+        np.multiply(x.rgb[b], share[..., None], out=image[..., :c])
+        np.multiply(x.alpha[b], share, out=image[..., c])
+        coc = np.where(share > 0, x.coc[b], np.float32(0.0))
+        parts.append(LayerPart(b, image, coc, i))
+        radii.append(np.abs(coc))
+        shares.append((image[..., c], share))
+    resolved, box, times = splatter.splat_layer(parts, (h, w))
     sites = np.zeros((h, w), np.float32)
-    for (_, _, _, b), (alpha, _) in zip(parts, shares):
-        sites[b] += alpha
+    for part, (alpha, _) in zip(parts, shares):
+        sites[part.box] += alpha
     # rho weighs radii by coverage; a layer of pure light (zero alpha, e.g. the sky) by pixel
     covered = any(alpha.any() for alpha, _ in shares)
     weights = [alpha if covered else m for alpha, m in shares]
@@ -357,4 +357,4 @@ def _splat_layer(splatter: LayerSplatter, layers, rgba, members):
     stats = {"pixels": int(sum((m > 0).sum() for _, m in shares)), "radius_px": rho,
              "max_radius_px": float(max(r.max() for r in radii)), "device_ms": times["device_ms"],
              "transfer_ms": times["transfer_ms"]}
-    return resolved, sites, stats
+    return resolved, box, sites, stats

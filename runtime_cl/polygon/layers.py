@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from runtime_cl.layers.composite import frame_image
 from runtime_cl.polygon.splat import PolygonSplatter
 
 __all__ = ["PolygonLayerSplatter"]
@@ -14,17 +15,21 @@ class PolygonLayerSplatter:
     plane), the layer's images into one fixed-point canvas."""
 
     def __init__(self, splatter: PolygonSplatter):
-        self.splatter = splatter
+        self.splatter, self.device = splatter, splatter.device
 
-    def splat_layer(self, images: list, cocs: list, sources: list = ()) -> tuple:
+    def splat_layer(self, parts: list, shape: tuple) -> tuple:
         sp = self.splatter
-        h, w, c = images[0].shape
-        canvas = sp.canvas(h, w, c, sum(float(np.abs(im).sum(dtype=np.float64)) for im in images))
-        device_ms = sum(sp.splat(canvas, im, np.abs(k))["splat_ms"] for im, k in zip(images, cocs))
+        c1 = parts[0].image.shape[2]
+        # the canvas's fixed-point scale from the total |colour| (the parts hold all of it)
+        canvas = sp.canvas(*shape, c1, sum(float(np.abs(p.image).sum(dtype=np.float64)) for p in parts))
+        device_ms = 0.0
+        for part in parts:
+            image, coc = frame_image(part, shape)
+            device_ms += sp.splat(canvas, image, np.abs(coc))["splat_ms"]
         resolved, info = sp.resolve(canvas)
         times = {"device_ms": device_ms + info["prefix_ms"] + info["sum_ms"],
                  "transfer_ms": info["download_ms"]}
-        return resolved, times
+        return resolved, (slice(0, shape[0]), slice(0, shape[1])), times
 
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.splatter.render(image, radius_px)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.errors import InputError
-from runtime_cl.masks import nonzero_box
+from runtime_cl.masks import nonzero_box, on_box, union_box
 
 __all__ = ["SpreadletLayerSplatter"]
 
@@ -50,48 +50,62 @@ class SpreadletLayerSplatter:
         from runtime_cl.passes.polygon import builtin_splatter
 
         self.renderer, self.method, self.coords = renderer, method, list(coords)
+        self.device = renderer.device
         self.bank_checked, self.bank_laplacian = bool(bank_checked), bank_laplacian
         self.blur_splatter = builtin_splatter(BLUR_SHAPE, renderer.device)
         self.counts = {"spreadlets": 0, "dense_pixels": 0, "highlights": 0}
         # how far a pixel's splat can land from it, turned or not (+1: the bilinear share)
         self.reach = int(renderer.db.rotated_pad) + 1
 
-    def _render(self, image, source: int) -> tuple:
-        coords, angle = self.coords[source]
-        window = nonzero_box(image, self.reach)
-        if window is None:   # nothing to splat
-            return np.zeros(image.shape[:2] + (max(image.shape[2], self.renderer.db.channels),), np.float32), \
-                {"device_ms": 0.0, "transfer_ms": 0.0}
-        crop, t = self.renderer.render(image[window], coords[window], self.method,
+    def _render(self, part, shape) -> tuple:
+        """``part`` (a :class:`~runtime_cl.layers.composite.LayerPart`) rendered on its window:
+        the box of its non-zero pixels widened by how far their splats reach. Returns the image,
+        the window (None: nothing to splat) and the times."""
+        coords, angle = self.coords[part.source]
+        tight = nonzero_box(part.image)
+        if tight is None:
+            return None, None, {"device_ms": 0.0, "transfer_ms": 0.0}
+        # the part's non-zero pixels in a zero image of its window (the renderer's input)
+        drawn = tuple(slice(b.start + t.start, b.start + t.stop) for b, t in zip(part.box, tight))
+        window = tuple(slice(max(d.start - self.reach, 0), min(d.stop + self.reach, n))
+                       for d, n in zip(drawn, shape))
+        image = on_box(part.image[tight], drawn, window)
+        crop, t = self.renderer.render(image, coords[window], self.method,
                                        angle=None if angle is None else angle[window],
                                        bank_checked=self.bank_checked, bank_laplacian=self.bank_laplacian)
-        # the layer's pixels and every splat they reach, placed in a zero frame (pages outside the
-        # window are not touched here)
-        out = np.zeros(image.shape[:2] + crop.shape[2:], np.float32)
-        out[window] = crop
         self.counts["spreadlets"] += int(t["spreadlets"])
         self.counts["dense_pixels"] += int(t["dense_pixels"])
         self.counts["highlights"] += int(t["highlights"])
-        return out, {"device_ms": t["kernel_ms"] + t["integrate_device_ms"],
-                     "transfer_ms": t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"]}
+        return crop, window, {"device_ms": t["kernel_ms"] + t["integrate_device_ms"],
+                              "transfer_ms": t["upload_ms"] + t["download_ms"] + t["integrate_transfer_ms"]}
 
-    def splat_layer(self, images: list, cocs: list, sources: list) -> tuple:
-        h, w, c1 = images[0].shape
+    def splat_layer(self, parts: list, shape: tuple) -> tuple:
+        c1 = parts[0].image.shape[2]
         if c1 != 4:
             raise InputError(f"images: {c1 - 1} colour channel(s); the spreadlet layers draw RGB and "
                              "opacity as one 4-channel image (give the layers RGB radiance)")
-        out = None
+        rendered = []
         times = {"device_ms": 0.0, "transfer_ms": 0.0}
-        for image, source in zip(images, sources):
-            if source >= len(self.coords):
-                raise InputError(f"sources: input layer {source}, but coordinates were given for "
+        for part in parts:
+            if part.source >= len(self.coords):
+                raise InputError(f"sources: input layer {part.source}, but coordinates were given for "
                                  f"{len(self.coords)} layer(s)")
-            rendered, t = self._render(image, source)
-            # the renderer's image is a fresh array: the first is the sum so far (no zeros + add)
-            out = rendered if out is None else np.add(out, rendered, out=out)
+            crop, window, t = self._render(part, shape)
+            if crop is not None:
+                rendered.append((crop, window))
             times["device_ms"] += t["device_ms"]
             times["transfer_ms"] += t["transfer_ms"]
-        return (np.zeros((h, w, c1), np.float32) if out is None else out), times
+        if not rendered:
+            return np.zeros((1, 1, c1), np.float32), (slice(0, 1), slice(0, 1)), times
+        box = rendered[0][1]
+        for _, window in rendered[1:]:
+            box = union_box(box, window)
+        # the renderer's image is a fresh array: on its own it is the sum (no zeros + add)
+        out = on_box(*rendered[0], box)
+        for crop, window in rendered[1:]:
+            out[window[0].start - box[0].start:window[0].stop - box[0].start,
+                window[1].start - box[1].start:window[1].stop - box[1].start] += crop
+        return out, box, times
 
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.blur_splatter.render(image, float(radius_px))

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from runtime_cl.masks import nonzero_box, nonzero_pixels
+from runtime_cl.masks import nonzero_box, nonzero_pixels, on_box, union_box
 
 
 @pytest.mark.parametrize("channels", [None, 1, 4])
@@ -37,3 +37,14 @@ def test_nonzero_pixels_is_any_channel(channels):
     out = seed.copy()
     assert nonzero_pixels(a, out) is out
     np.testing.assert_array_equal(out, want | seed)
+
+
+def test_boxes_unite_and_place_an_image():
+    a, b = (slice(2, 5), slice(3, 9)), (slice(4, 12), slice(0, 4))
+    assert union_box(a, b) == (slice(2, 12), slice(0, 9)) and union_box(a, None) == a
+    image = np.arange(18, dtype=np.float32).reshape(3, 6)
+    frame = np.zeros((12, 9), np.float32)
+    frame[a] = image
+    outer = union_box(a, b)
+    assert np.array_equal(on_box(image, a, outer), frame[outer])
+    assert on_box(image, a, a) is image   # the same box: no copy

@@ -15,7 +15,8 @@ from runtime_cl.camera.thin_lens import ThinLens
 from runtime_cl.coords.maps import psf_coords
 from runtime_cl.errors import InputError
 from runtime_cl.frame import Frame
-from runtime_cl.layers.composite import PixelLayer, render_layers
+from runtime_cl.layers.composite import LayerPart, PixelLayer, render_layers
+from runtime_cl.masks import on_box
 from runtime_cl.passes import get_pass
 from runtime_cl.passes.polygon import builtin_splatter
 from runtime_cl.psf.synthetic import disc_database
@@ -297,7 +298,10 @@ def test_a_layer_renders_on_its_window_as_on_the_frame(method, where):
     coords = (rng.random((h, w, 1)) * 6).astype(np.float32)
     angle = rng.uniform(-np.pi, np.pi, (h, w)).astype(np.float32)
     splatter = SpreadletLayerSplatter(r, method, [(coords, angle)])
-    got, _ = splatter.splat_layer([rgba], [np.zeros((h, w), np.float32)], [0])
+    part_box = box or (slice(10, 20), slice(5, 9))   # empty: a part whose pixels are all zero
+    crop, drawn, _ = splatter.splat_layer([LayerPart(part_box, rgba[part_box], np.zeros(rgba[part_box].shape[:2],
+                                                                                         np.float32), 0)], (h, w))
+    got = on_box(crop, drawn, (slice(0, h), slice(0, w)))
     want, _ = r.render(rgba, coords, method, angle=angle)
     assert got.shape == want.shape == (h, w, 4)
     np.testing.assert_allclose(got, want, rtol=0, atol=2e-6 * max(float(np.abs(want).max()), 1.0))

@@ -39,12 +39,10 @@ def nonzero_box(a: np.ndarray, grow: int = 0) -> tuple | None:
             slice(max(int(cols[0]) - grow, 0), min(int(cols[-1]) + 1 + grow, w)))
 
 
-def union_box(a: tuple, b: tuple | None) -> tuple:
-    """The smallest box holding the boxes ``a`` and ``b`` (None: ``a``)."""
-    if b is None:
-        return a
-    return (slice(min(a[0].start, b[0].start), max(a[0].stop, b[0].stop)),
-            slice(min(a[1].start, b[1].start), max(a[1].stop, b[1].stop)))
+def union_box(*boxes) -> tuple:
+    """The smallest box holding the given boxes (None among them: ignored; at least one box)."""
+    boxes = [b for b in boxes if b is not None]
+    return tuple(slice(min(b[k].start for b in boxes), max(b[k].stop for b in boxes)) for k in range(2))
 
 
 def on_box(image: np.ndarray, box: tuple, outer: tuple) -> np.ndarray:

@@ -89,7 +89,10 @@ class LayerSplatter(Protocol):
         drew nothing (float32, the box's (h, w, C + 1))."""
 
     def blur(self, image, radius_px: float) -> tuple:
-        """``image`` (H, W) float32 blurred by the PSF of CoC radius ``radius_px`` everywhere."""
+        """``image`` (H, W, K) float32 blurred by the PSF of CoC radius ``radius_px`` everywhere."""
+
+    def blur_reach(self, radius_px: float) -> int:
+        """How far from a pixel :meth:`blur` at ``radius_px`` spreads it (px)."""
 
     device: object   # the OpenCL device (runtime_cl.device.opencl.Device) the layers composite on
 
@@ -290,20 +293,30 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
         if not any(m.any() for m in members):
             continue
         resolved, drawn, sites, stats = _splat_layer(splatter, layers, members)
-        hidden = None
-        nearer = sum(x.alpha * f[index - 1] for x, f in zip(layers, front)) if index else None
-        if nearer is not None and np.any(nearer > 0):
-            hidden, times = splatter.blur(np.minimum(nearer, 1.0).astype(np.float32), stats["radius_px"])
-            _add(stats, times)
-        own = None
-        if per_layer:                                                # something lies behind
-            own, times = splatter.blur(np.minimum(sites, 1.0), stats["radius_px"])
-            _add(stats, times)
+        reach = int(splatter.blur_reach(stats["radius_px"]))
+        behind = bool(per_layer)   # something lies behind: the own sites' bound applies
         # outside the box of what the layer drew (its splats, its own sites' blur) "over" leaves
-        # out as it is: the device composites that box alone
-        box = union_box(drawn, None if own is None else nonzero_box(np.maximum(own, 0.0)))
-        covered, total, ms = over(out, np.ascontiguousarray(on_box(resolved, drawn, box)), box, hidden, own,
-                                  MIN_KNOWN)
+        # out as it is: it is composited on that box alone, and the blurs are made on the box
+        # widened by their reach (the same values as blurring the whole frame)
+        box = union_box(drawn, _grow(union_box(*[b for b, _ in sites]), reach, (h, w)) if behind else None)
+        region = _grow(box, reach, (h, w))
+        planes = []
+        if index:
+            nearer = sum(x.alpha[region] * f[index - 1][region] for x, f in zip(layers, front))
+            if np.any(nearer > 0):
+                planes.append(np.minimum(nearer, 1.0))
+        has_hidden = bool(planes)
+        if behind:
+            own = np.zeros(_shape(region), np.float32)
+            for b, alpha in sites:
+                own[_within(b, region)] += alpha
+            planes.append(np.minimum(own, 1.0))
+        blurred = None
+        if planes:   # the nearer layers' coverage and the layer's own sites: one blur of both
+            blurred, times = splatter.blur(np.stack(planes, axis=2).astype(np.float32), stats["radius_px"])
+            _add(stats, times)
+        covered, total, ms = over(out, np.ascontiguousarray(on_box(resolved, drawn, box)), box,
+                                  blurred, region, has_hidden, behind, MIN_KNOWN)
         stats["device_ms"] += ms
         per_layer.append(dict(stats, index=index, coverage_gain=covered / max(total, 1e-30)))
     info = {"edges": edges.tolist(), "layers": per_layer[::-1],
@@ -311,6 +324,20 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
             "transfer_ms": sum(x["transfer_ms"] for x in per_layer),
             "wall_ms": (time.perf_counter() - start) * 1e3}
     return out.astype(np.float32), info
+
+
+def _shape(box: tuple) -> tuple:
+    return box[0].stop - box[0].start, box[1].stop - box[1].start
+
+
+def _grow(box: tuple, by: int, shape: tuple) -> tuple:
+    """``box`` widened by ``by`` pixels on every side, clipped to the (H, W) frame ``shape``."""
+    return tuple(slice(max(b.start - by, 0), min(b.stop + by, n)) for b, n in zip(box, shape))
+
+
+def _within(box: tuple, outer: tuple) -> tuple:
+    """``box`` in the coordinates of the box ``outer`` that holds it."""
+    return tuple(slice(b.start - o.start, b.stop - o.start) for b, o in zip(box, outer))
 
 
 def _running_sums(weights: np.ndarray) -> list:
@@ -329,7 +356,7 @@ def _add(stats: dict, times: dict) -> None:
 
 def _splat_layer(splatter: LayerSplatter, layers, members):
     """One depth layer: resolved premultiplied colour and coverage (on its box), that box, the
-    coverage of its sites (H, W) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``,
+    coverage of its sites (a (box, coverage) pair per input layer) and stats (``pixels``, ``radius_px`` rho, ``max_radius_px``,
     times). The layer's images are made on the box of each input layer's non-zero share."""
     c = layers[0].rgb.shape[2]
     h, w = members[0].shape
@@ -347,9 +374,7 @@ def _splat_layer(splatter: LayerSplatter, layers, members):
         radii.append(np.abs(coc))
         shares.append((image[..., c], share))
     resolved, box, times = splatter.splat_layer(parts, (h, w))
-    sites = np.zeros((h, w), np.float32)
-    for part, (alpha, _) in zip(parts, shares):
-        sites[part.box] += alpha
+    sites = [(part.box, alpha) for part, (alpha, _) in zip(parts, shares)]
     # rho weighs radii by coverage; a layer of pure light (zero alpha, e.g. the sky) by pixel
     covered = any(alpha.any() for alpha, _ in shares)
     weights = [alpha if covered else m for alpha, m in shares]

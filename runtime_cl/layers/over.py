@@ -27,33 +27,34 @@ class OverKernel:
         self.device, self.channels = device, int(channels)
         prg, _ = device.program("layers/over.cl", [f"-DNC={self.channels}", f"-DGROUP={GROUP}"])
         self.kernel = cl.Kernel(prg, "over_layer")
-        self.kernel.set_scalar_arg_dtypes([None] * 5 + [np.int32] * 6 + [np.float32])
+        self.kernel.set_scalar_arg_dtypes([None] * 4 + [np.int32] * 9 + [np.float32])
         self._dummy = cl.Buffer(device.context, cl.mem_flags.READ_ONLY, 4)
 
-    def __call__(self, out: np.ndarray, layer: np.ndarray, box: tuple, hidden, own, min_known: float) -> tuple:
+    def __call__(self, out: np.ndarray, layer: np.ndarray, box: tuple, blurred, region: tuple,
+                 has_hidden: bool, has_own: bool, min_known: float) -> tuple:
         """Composite ``layer`` (the box's (h, w, C + 1) colour and alpha, C-contiguous float32)
-        over ``out`` ((H, W, C) float32, C-contiguous, updated in place). ``hidden`` and ``own``
-        are (H, W) float32 frames or None. Returns ``(covered, total, device_ms)``: the layer's
-        coverage after the re-weighting (before the own-sites bound) and before it."""
+        over ``out`` ((H, W, C) float32, C-contiguous, updated in place). ``blurred``: the
+        (rh, rw, K) blurs on ``region`` (a box holding ``box``): the nearer layers' coverage if
+        ``has_hidden``, then the layer's own sites if ``has_own``; None if neither. Returns
+        ``(covered, total, device_ms)``: the layer's coverage after the re-weighting (before the
+        own-sites bound) and before it."""
         import pyopencl as cl
 
         ctx, q = self.device.context, self.device.queue
         mf = cl.mem_flags
         bh, bw = layer.shape[:2]
-
-        def host(a, flags):
-            return cl.Buffer(ctx, flags | mf.USE_HOST_PTR, hostbuf=a)
-
         groups = -(-bw // GROUP)
         sums = np.empty((bh, groups, 2), np.float32)
-        bufs = [host(layer, mf.READ_ONLY),
-                self._dummy if hidden is None else host(np.ascontiguousarray(hidden), mf.READ_ONLY),
-                self._dummy if own is None else host(np.ascontiguousarray(own), mf.READ_ONLY),
-                host(out, mf.READ_WRITE), host(sums, mf.WRITE_ONLY)]
-        event = self.kernel(q, (groups * GROUP, bh), (GROUP, 1), *bufs, out.shape[1], box[0].start, box[1].start, bw,
-                            hidden is not None, own is not None, min_known)
+        bufs = [cl.Buffer(ctx, mf.READ_ONLY | mf.USE_HOST_PTR, hostbuf=layer),
+                self._dummy if blurred is None else
+                cl.Buffer(ctx, mf.READ_ONLY | mf.USE_HOST_PTR, hostbuf=np.ascontiguousarray(blurred)),
+                cl.Buffer(ctx, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=out),
+                cl.Buffer(ctx, mf.WRITE_ONLY | mf.USE_HOST_PTR, hostbuf=sums)]
+        event = self.kernel(q, (groups * GROUP, bh), (GROUP, 1), *bufs, out.shape[1], box[0].start,
+                            box[1].start, bw, region[1].stop - region[1].start, box[0].start - region[0].start,
+                            box[1].start - region[1].start, has_hidden, has_own, min_known)
         # mapping makes the host's arrays current (a no-op copy where PoCL used them in place)
-        for buf, a in ((bufs[3], out), (bufs[4], sums)):
+        for buf, a in ((bufs[2], out), (bufs[3], sums)):
             mapped, _ = cl.enqueue_map_buffer(q, buf, cl.map_flags.READ, 0, a.shape, a.dtype, is_blocking=True)
             mapped.base.release(q)
         covered, total = sums.reshape(-1, 2).sum(axis=0, dtype=np.float64)

@@ -34,3 +34,6 @@ class PolygonLayerSplatter:
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.splatter.render(image, radius_px)
         return out, {"device_ms": info["kernel_ms"], "transfer_ms": info["transfer_ms"]}
+
+    def blur_reach(self, radius_px: float) -> int:
+        return int(np.abs(self.splatter.polygon(float(radius_px))).max()) + 1

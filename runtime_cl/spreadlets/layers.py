@@ -97,9 +97,7 @@ class SpreadletLayerSplatter:
             times["transfer_ms"] += t["transfer_ms"]
         if not rendered:
             return np.zeros((1, 1, c1), np.float32), (slice(0, 1), slice(0, 1)), times
-        box = rendered[0][1]
-        for _, window in rendered[1:]:
-            box = union_box(box, window)
+        box = union_box(*[window for _, window in rendered])
         # the renderer's image is a fresh array: on its own it is the sum (no zeros + add)
         out = on_box(*rendered[0], box)
         for crop, window in rendered[1:]:
@@ -110,3 +108,6 @@ class SpreadletLayerSplatter:
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.blur_splatter.render(image, float(radius_px))
         return out, {"device_ms": info["kernel_ms"], "transfer_ms": info["transfer_ms"]}
+
+    def blur_reach(self, radius_px: float) -> int:
+        return int(np.abs(self.blur_splatter.polygon(float(radius_px))).max()) + 1

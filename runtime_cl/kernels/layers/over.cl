@@ -7,11 +7,13 @@
 
 __kernel __attribute__((reqd_work_group_size(GROUP, 1, 1)))
 void over_layer(__global const float *layer,   // (BH, BW, NC + 1) colour, alpha
-                __global const float *hidden,  // (H, W) nearer coverage blurred, or unused
-                __global const float *own,     // (H, W) own sites blurred, or unused
+                __global const float *blurred, // (RH, RW, K) the region's blurs: the nearer
+                                               // layers' coverage (if has_hidden), then the
+                                               // layer's own sites (if has_own); or unused
                 __global float *out,           // (H, W, NC) composite so far, in place
                 __global float *sums,          // (BH, groups, 2) per work-group: covered, total
                 const int W, const int r0, const int c0, const int BW,
+                const int RW, const int oy, const int ox,   // the box at (oy, ox) of the region
                 const int has_hidden, const int has_own, const float min_known) {
     __local float covered[GROUP], total[GROUP];
     const int x = get_global_id(0), y = get_global_id(1), l = get_local_id(0);
@@ -19,14 +21,16 @@ void over_layer(__global const float *layer,   // (BH, BW, NC + 1) colour, alpha
     if (x < BW) {
         __global const float *px = layer + ((long)y * BW + x) * (NC + 1);
         const long f = (long)(r0 + y) * W + c0 + x;
+        const int k = has_hidden + has_own;
+        __global const float *b = blurred + ((long)(oy + y) * RW + ox + x) * k;
         const float alpha = px[NC];
-        const float known = has_hidden ? 1.0f - hidden[f] : 1.0f;
+        const float known = has_hidden ? 1.0f - b[0] : 1.0f;
         const float weight = 1.0f / clamp(fmax(known, alpha), min_known, 1.0f);
         float opacity = fmin(alpha * weight, 1.0f);
         cov = opacity;
         tot = fmin(alpha, 1.0f);
         if (has_own)
-            opacity = fmax(opacity, fmin(own[f] / clamp(known, min_known, 1.0f), 1.0f));
+            opacity = fmax(opacity, fmin(b[k - 1] / clamp(known, min_known, 1.0f), 1.0f));
         const float keep = 1.0f - opacity;
         __global float *o = out + f * NC;
         for (int c = 0; c < NC; ++c) {

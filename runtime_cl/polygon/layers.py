@@ -1,9 +1,16 @@
-"""Exact polygons as the splatter of generic depth layers (:mod:`runtime_cl.layers.composite`)."""
+"""Exact polygons as the splatter of generic depth layers (:mod:`runtime_cl.layers.composite`).
+
+A layer is splatted on its window -- the box of its pixels widened by the largest polygon's
+reach -- not on the whole frame: the canvas's prefix sums cost its area, and a depth layer's
+pixels fill a band of the frame. Every pixel's terms land inside the window and the sums are
+exact integers, so the window holds the very values of a full-frame canvas (a test checks).
+"""
 from __future__ import annotations
 
 import numpy as np
 
-from runtime_cl.layers.composite import frame_image
+from runtime_cl.layers.composite import LayerPart, frame_image
+from runtime_cl.masks import nonzero_box, union_box
 from runtime_cl.polygon.splat import PolygonSplatter
 
 __all__ = ["PolygonLayerSplatter"]
@@ -20,16 +27,34 @@ class PolygonLayerSplatter:
     def splat_layer(self, parts: list, shape: tuple) -> tuple:
         sp = self.splatter
         c1 = parts[0].image.shape[2]
+        window = self._window(parts, shape)
+        if window is None:   # nothing to splat
+            return np.zeros((1, 1, c1), np.float32), (slice(0, 1), slice(0, 1)), {"device_ms": 0.0, "transfer_ms": 0.0}
+        size = (window[0].stop - window[0].start, window[1].stop - window[1].start)
         # the canvas's fixed-point scale from the total |colour| (the parts hold all of it)
-        canvas = sp.canvas(*shape, c1, sum(float(np.abs(p.image).sum(dtype=np.float64)) for p in parts))
+        canvas = sp.canvas(*size, c1, sum(float(np.abs(p.image).sum(dtype=np.float64)) for p in parts))
         device_ms = 0.0
         for part in parts:
-            image, coc = frame_image(part, shape)
+            moved = tuple(slice(b.start - w.start, b.stop - w.start) for b, w in zip(part.box, window))
+            image, coc = frame_image(LayerPart(moved, part.image, part.coc, part.source), size)
             device_ms += sp.splat(canvas, image, np.abs(coc))["splat_ms"]
         resolved, info = sp.resolve(canvas)
         times = {"device_ms": device_ms + info["prefix_ms"] + info["sum_ms"],
                  "transfer_ms": info["download_ms"]}
-        return resolved, (slice(0, shape[0]), slice(0, shape[1])), times
+        return resolved, window, times
+
+    def _window(self, parts: list, shape: tuple) -> tuple | None:
+        """The parts' boxes widened by the reach of the largest polygon they draw (every term of
+        every kernel up to it: :attr:`RadiusTable.bounds`), clipped to the frame; None if no part
+        has a non-zero pixel."""
+        drawn = [p.box for p in parts if nonzero_box(p.image) is not None]
+        if not drawn:
+            return None
+        r_max = max(float(np.abs(p.coc).max()) for p in parts)
+        table = self.splatter.table.ensure(r_max)
+        reach = int(np.abs(table.bounds[:int(table.entry(np.float32(r_max))) + 1]).max()) + 1
+        box = union_box(*drawn)
+        return tuple(slice(max(b.start - reach, 0), min(b.stop + reach, n)) for b, n in zip(box, shape))
 
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.splatter.render(image, radius_px)

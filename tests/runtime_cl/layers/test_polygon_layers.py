@@ -11,7 +11,8 @@ import pytest
 from polygon_reference import footprint, shape
 
 from runtime_cl.errors import InputError
-from runtime_cl.layers.composite import PixelLayer, layer_edges, render_layers
+from runtime_cl.layers.composite import LayerPart, PixelLayer, layer_edges, render_layers
+from runtime_cl.masks import on_box
 from runtime_cl.polygon.layers import PolygonLayerSplatter
 from runtime_cl.polygon.splat import PolygonSplatter
 
@@ -116,6 +117,29 @@ def test_single_layer_is_todays_polygon_render(hexagon):
     today, _ = hexagon.render(img.rgb, np.abs(img.coc))
     np.testing.assert_allclose(got, today, rtol=1e-6, atol=1e-7)
     assert [x["coverage_gain"] for x in info["layers"]] == [1.0]
+
+
+@pytest.mark.parametrize("where", ["corner", "middle", "empty"])
+def test_a_layer_is_splatted_on_its_window_as_on_the_frame(hexagon, where):
+    """A layer's canvas is the box of its pixels widened by its largest polygon's reach: the same
+    values, to the last bit, as the whole frame's canvas (exact integer sums), and nothing
+    outside it."""
+    rng = np.random.default_rng(11)
+    h, w = 70, 90
+    rgba = np.zeros((h, w, 4), np.float32)
+    coc = np.zeros((h, w), np.float32)
+    box = {"corner": (slice(0, 9), slice(78, 90)), "middle": (slice(30, 38), slice(40, 52)), "empty": None}[where]
+    part_box = box or (slice(10, 20), slice(5, 9))
+    if box is not None:
+        rgba[box] = rng.random(rgba[box].shape)
+        coc[box] = rng.uniform(-9.0, 9.0, coc[box].shape)
+    part = LayerPart(part_box, rgba[part_box], coc[part_box], 0)
+    crop, window, _ = PolygonLayerSplatter(hexagon).splat_layer([part], (h, w))
+    got = on_box(crop, window, (slice(0, h), slice(0, w)))
+    want, _ = hexagon.render(rgba, np.abs(coc))
+    assert np.array_equal(got, want)
+    if box is not None:
+        assert window != (slice(0, h), slice(0, w)) and np.abs(want).max() > 0
 
 
 def test_in_focus_foreground_is_not_bled_over(hexagon):

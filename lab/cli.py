@@ -99,7 +99,8 @@ DESCRIPTIONS = {
                  "resumes; both are cached by a hash of the scene and the rendering code.",
     "stochastic": "Path-trace a stochastic (1-spp) labelled-pixel EXR of a scene (LSR18 6.2, Table 3's "
                   "input): one camera ray per pixel through the scene's own thin lens (round, iris or "
-                  "shaped aperture) or pinhole, each pixel with its own lens sample and shutter time, "
+                  "shaped aperture), thick lens (one ray per channel wavelength) or pinhole, each pixel "
+                  "with its own lens sample and shutter time, "
                   "written as the channels lens.U, lens.V and time beside R, G, B, A, Z (and motion.X, "
                   "motion.Y for a moving scene). `splatlab render OUT.exr --method stochastic_spreadlets` "
                   "(or stochastic_splat) reconstructs it. Cached by a hash of the scene and the code.",

@@ -177,9 +177,8 @@ def stochastic_input(scene: Scene, index: int = 0, shading_spp: int = 1, image: 
     cached beside its input by a hash of that module. A moving scene's sub-frames follow the
     longest motion of its labelled input: ``image``, or the cached input (rendered if missing)."""
     from .motion import scene_moves
-    from .reference.stochastic import check_camera, render_stochastic
+    from .reference.stochastic import render_stochastic
 
-    check_camera(scene)
     longest = 0.0
     if scene_moves(scene):
         image = image if image is not None else input_only(scene, progress)

@@ -4,7 +4,11 @@ the scene's own camera, with the pixel's lens sample and shutter time as channel
 Each pixel gets its own sub-pixel position (the box filter the references use), lens sample
 (u, v) and shutter time t, and one path traced with the scene's integrator (``path``; ``volpath``
 in a medium) through the camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped
-aperture the reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). Mitsuba
+aperture the reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A thick
+lens's pixel sends one ray per channel, through the same exit-pupil box sample at the channel's
+wavelength, traced backward through the lens as the runtime re-traces it to re-centre the sample
+(:mod:`runtime_cl.stochastic.thick`); R, G and B are the three rays' radiances, and Z, A and the
+motion are the middle (510 nm) ray's. A ray the lens blocks adds nothing (its channel is 0). Mitsuba
 3.9.1 cannot move shapes during a launch, so, as for the motion reference
 (:mod:`lab.reference.motion`), the shutter is cut into sub-frames at most a pixel of motion
 apart: a pixel's time picks its sub-frame, and each sub-frame traces only its own pixels (one
@@ -24,9 +28,12 @@ delivers. The lens and time noise is then all there is, which is what the recons
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from runtime_cl.stochastic.samples import inverse_concentric
+from runtime_cl.stochastic.thick import backward_rays, pupil_boxes
 
 from ..errors import UserError
 from ..exr_io import LabelledImage
@@ -36,7 +43,7 @@ from .backend import mitsuba
 from .motion import Animator, project, subframes_for
 from .render import load
 
-__all__ = ["check_camera", "lens_channels", "render_stochastic", "stochastic_seed", "trace_samples"]
+__all__ = ["lens_channels", "render_stochastic", "stochastic_seed", "thick_rays", "trace_samples"]
 
 _STREAM = 0x5707    # the stochastic input's seed stream (apart from the reference and input streams)
 
@@ -44,16 +51,6 @@ _STREAM = 0x5707    # the stochastic input's seed stream (apart from the referen
 def stochastic_seed(scene: Scene, index: int) -> np.random.SeedSequence:
     """The seeds of the ``index``-th independent 1-spp image of ``scene``."""
     return np.random.SeedSequence([scene.render.seed, _STREAM, index])
-
-
-def check_camera(scene: Scene) -> None:
-    """A :class:`~lab.errors.UserError` unless the scene's camera can write a stochastic input."""
-    cam = scene.camera
-    if cam.model in ("pinhole", "thin"):
-        return
-    raise UserError(f"{scene.source} [camera]: a stochastic input is written for a thin lens (a round, iris or "
-                    f"shaped aperture) or a pinhole, whose lens samples are points of the unit disc; this camera "
-                    f"is {cam.model!r}")
 
 
 def lens_channels(scene: Scene, lens: np.ndarray) -> tuple:
@@ -65,10 +62,13 @@ def lens_channels(scene: Scene, lens: np.ndarray) -> tuple:
     of (u, v), which is odd in each coordinate, so ``(1 - u, 1 - v)`` is the film's point (exact).
     An iris or a shaped aperture (:mod:`lab.reference.aperture_lens`) puts it at the camera's
     (-x, y) of its shape's point (x, y) (lens plane, x right, y up): the film's (x, -y), mapped
-    back to the square by the inverse concentric map.
+    back to the square by the inverse concentric map. A thick lens's are its exit-pupil box
+    samples, as drawn (:func:`thick_rays`).
     """
-    params = scene.camera.aperture_params() if scene.camera.model == "thin" else None
     top = np.float32(np.nextafter(np.float32(1.0), np.float32(0.0)))
+    if scene.camera.model == "thick":   # the exit-pupil box samples (runtime_cl.stochastic.thick)
+        return np.minimum(lens[:, 0], top), np.minimum(lens[:, 1], top)
+    params = scene.camera.aperture_params() if scene.camera.model == "thin" else None
     if params is None:
         return np.minimum(1.0 - lens[:, 0], top), np.minimum(1.0 - lens[:, 1], top)
     from drjit.llvm import Array2f, Float
@@ -104,11 +104,36 @@ def _flow(scene: Scene, points, t_frac, shape_idx) -> np.ndarray:
     return flow
 
 
+def thick_rays(camera, sensor, shape, film, lens, channel: int, t_abs: float) -> tuple:
+    """World rays of a thick lens's samples: from film positions ``film`` ((m, 2) px) through
+    exit-pupil box samples ``lens`` ((m, 2)) in ``channel``, traced backward through the lens as
+    the runtime re-traces them (:func:`runtime_cl.stochastic.thick.backward_rays`), placed by the
+    scene sensor's transform at ``t_abs`` as :mod:`lab.reference.thick_lens_sensor` places its
+    own rays. Returns ``(mi.Ray3f, ok)``: ``ok`` (m,) bool, False where the lens blocks the ray
+    (its lane traces a dummy ray whose radiance is dropped)."""
+    mi = mitsuba()
+    o, d, ok = backward_rays(camera, _boxes(camera, shape), shape, film, lens, channel)
+    o, d = np.where(ok[:, None], o, 0.0), np.where(ok[:, None], d, [[0.0, 0.0, -1.0]])
+    # lens coordinates (x right, y up seen from the camera, z into it; mm) -> Mitsuba camera space
+    origin = mi.Point3f(mi.Float(-o[:, 0] / 1000.0), mi.Float(o[:, 1] / 1000.0),
+                        mi.Float((camera.pupil_z_mm - o[:, 2]) / 1000.0))
+    direction = mi.Vector3f(mi.Float(-d[:, 0]), mi.Float(d[:, 1]), mi.Float(-d[:, 2]))
+    to_world = sensor.world_transform()
+    ray = mi.Ray3f(mi.Point3f(to_world @ origin), mi.Vector3f(to_world @ direction), mi.Float(t_abs), mi.Color0f())
+    return mi.RayDifferential3f(ray), ok
+
+
+@functools.lru_cache(maxsize=4)
+def _boxes(camera, shape):
+    return pupil_boxes(camera, shape)
+
+
 def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shading_spp: int = 1) -> dict:
     """Trace one path per pixel (see the module docstring); the per-pixel arrays, row-major:
     ``rgb`` (N, 3), ``depth`` (N,), ``points`` (N, 3) world hit points, ``shape_idx`` (N,) scene
-    shape hit (-1: none), ``lens`` (N, 2) Mitsuba's aperture samples, ``t_frac`` (N,) shutter
-    fractions, ``jitter`` (N, 2) sub-pixel positions.
+    shape hit (-1: none), ``lens`` (N, 2) Mitsuba's aperture samples (a thick lens's box samples),
+    ``t_frac`` (N,) shutter fractions, ``jitter`` (N, 2) sub-pixel positions, ``blocked`` (N,) the
+    thick lens blocked the pixel's middle-wavelength ray (no sample: colour 0, depth inf).
 
     Parameters
     ----------
@@ -121,7 +146,6 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     shading_spp : int
         Paths traced from each pixel's camera ray (see the module docstring).
     """
-    check_camera(scene)
     if isinstance(shading_spp, bool) or not isinstance(shading_spp, int) or not 1 <= shading_spp <= 4096:
         raise UserError(f"shading_spp = {shading_spp!r}: give an integer in [1, 4096] (paths per camera ray)")
     mi = mitsuba()
@@ -136,6 +160,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     slot = rng.integers(0, k, h * w)
     mi_seeds = rng.integers(0, 2**31, k)
     mi_scene = load(scene, "scene", medium=True)
+    thick = scene.camera.runtime_camera() if scene.camera.model == "thick" else None
     animator = Animator(scene, mi_scene) if moves else None
     sensor, integrator = mi_scene.sensors()[0], mi_scene.integrator()
     ids = {sh.id(): int(np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(sh)))[0]) for sh in mi_scene.shapes()}
@@ -144,6 +169,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     depth = np.full(h * w, np.inf, np.float32)
     points = np.zeros((h * w, 3))
     shape_idx = np.full(h * w, -1)
+    blocked = np.zeros(h * w, bool)
     t_frac = (slot + 0.5) / k
     open_, close = scene.camera.shutter
     for s in range(k):
@@ -154,28 +180,40 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
         if animator is not None:
             animator.set_time(t_abs)
         lanes = np.repeat(pix, shading_spp)      # one camera ray per pixel, shading_spp paths from it
-        pos = mi.Point2f(mi.Float(((lanes % w) + jitter[lanes, 0]) / w),
-                         mi.Float(((lanes // w) + jitter[lanes, 1]) / h))
-        aperture = mi.Point2f(mi.Float(lens[lanes, 0]), mi.Float(lens[lanes, 1]))
         sampler = mi.load_dict({"type": "independent"})
         sampler.seed(int(mi_seeds[s]), int(lanes.size))
-        ray, weight = sensor.sample_ray_differential(mi.Float(t_abs), sampler.next_1d(), pos, aperture)
-        spec, _, _ = integrator.sample(mi_scene, sampler, ray, sensor.get_medium(), True)
-        value = spec * weight
-        rgb[pix] = np.stack([np.asarray(value[i]) for i in range(3)], axis=-1).reshape(
-            pix.size, shading_spp, 3).mean(axis=1)
+        if thick is not None:   # each channel's ray through the lens at its wavelength
+            film = np.stack([(lanes % w) + jitter[lanes, 0], (lanes // w) + jitter[lanes, 1]], axis=1)
+            for c in (1, 0, 2):
+                ray_c, ok = thick_rays(thick, sensor, (h, w), film, lens[lanes], c, t_abs)
+                if c == 1:   # the depth, hit and coverage of the middle wavelength's ray; where the
+                    ray, seen = ray_c, ok[::shading_spp]   # lens blocks it the pixel is no sample
+                spec, _, _ = integrator.sample(mi_scene, sampler, ray_c, sensor.get_medium(), True)
+                rgb[pix, c] = (np.asarray(spec[c]) * ok * np.repeat(seen, shading_spp)).reshape(
+                    pix.size, shading_spp).mean(axis=1)
+        else:
+            pos = mi.Point2f(mi.Float(((lanes % w) + jitter[lanes, 0]) / w),
+                             mi.Float(((lanes // w) + jitter[lanes, 1]) / h))
+            aperture = mi.Point2f(mi.Float(lens[lanes, 0]), mi.Float(lens[lanes, 1]))
+            ray, weight = sensor.sample_ray_differential(mi.Float(t_abs), sampler.next_1d(), pos, aperture)
+            spec, _, _ = integrator.sample(mi_scene, sampler, ray, sensor.get_medium(), True)
+            value = spec * weight
+            rgb[pix] = np.stack([np.asarray(value[i]) for i in range(3)], axis=-1).reshape(
+                pix.size, shading_spp, 3).mean(axis=1)
+            seen = np.ones(pix.size, bool)
         ray = mi.Ray3f(mi.Point3f(*(mi.Float(np.asarray(ray.o[i])[::shading_spp]) for i in range(3))),
                        mi.Vector3f(*(mi.Float(np.asarray(ray.d[i])[::shading_spp]) for i in range(3))))
         si = mi_scene.ray_intersect(ray)
-        valid = np.asarray(si.is_valid(), bool)
+        valid = np.asarray(si.is_valid(), bool) & seen
         p = np.stack([np.asarray(si.p[i], np.float64) for i in range(3)], axis=-1)
         z = (p - scene.camera.position_at(t_abs)) @ scene.camera.forward()
         depth[pix] = np.where(valid, z, np.inf)
+        blocked[pix] = ~seen
         points[pix] = p
         raw = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape))
         shape_idx[pix] = np.where(valid, [shape_of.get(int(r), -1) for r in raw], -1)
     return {"rgb": rgb, "depth": depth, "points": points, "shape_idx": shape_idx, "lens": lens,
-            "t_frac": t_frac, "jitter": jitter}
+            "t_frac": t_frac, "jitter": jitter, "blocked": blocked}
 
 
 def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
@@ -207,5 +245,17 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
     if scene.medium is not None:
         header["medium"] = scene.medium.header_json(scene.camera)
     alpha = np.isfinite(depth).astype(np.float32).reshape(h, w)
-    return LabelledImage(rgb=tr["rgb"].reshape(h, w, 3), alpha=alpha, depth=depth.reshape(h, w), camera=header,
-                         extra=extra)
+    return LabelledImage(rgb=tr["rgb"].reshape(h, w, 3), alpha=alpha, depth=_fill_blocked(depth, tr["blocked"], (h, w)),
+                         camera=header, extra=extra)
+
+
+def _fill_blocked(depth: np.ndarray, blocked: np.ndarray, shape: tuple) -> np.ndarray:
+    """(H, W) depths where a blocked pixel takes its nearest unblocked pixel's (it splats nothing,
+    but its PSF coordinates must lie in the database's range)."""
+    from scipy.ndimage import distance_transform_edt
+
+    depth, blocked = depth.reshape(shape), blocked.reshape(shape)
+    if not blocked.any() or blocked.all():
+        return depth
+    rows, cols = distance_transform_edt(blocked, return_distances=False, return_indices=True)
+    return depth[rows, cols]

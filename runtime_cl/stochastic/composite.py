@@ -45,16 +45,18 @@ def layer_bins(cocs: list, counts: list, n_layers: int) -> list:
     ----------
     cocs : list of (H, W)
         Signed CoC in pixels of each slot's entries.
-    counts : list of (H, W, 1)
-        Samples in each entry (0: empty).
+    counts : list of (H, W, K)
+        Samples in each entry (0 in every channel: empty; K > 1: per colour channel, as a thick
+        lens re-centres them).
     n_layers : int
         Equal steps of signed CoC over the non-empty entries.
     """
-    pixels = [PixelLayer(np.zeros(c.shape + (1,), np.float32), (n[..., 0] > 0).astype(np.float32), np.asarray(c))
-              for c, n in zip(cocs, counts)]
+    held = [np.max(n, axis=-1) > 0 for n in counts]
+    pixels = [PixelLayer(np.zeros(c.shape + (1,), np.float32), m.astype(np.float32), np.asarray(c))
+              for c, m in zip(cocs, held)]
     edges = layer_edges(pixels, n_layers)
-    return [np.where(n[..., 0] > 0, np.searchsorted(edges[1:-1], np.asarray(c, np.float64), side="right"), -1)
-            for c, n in zip(cocs, counts)]
+    return [np.where(m, np.searchsorted(edges[1:-1], np.asarray(c, np.float64), side="right"), -1)
+            for c, m in zip(cocs, held)]
 
 
 def _box3(a: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ import numpy as np
 from runtime_cl.errors import InputError
 from runtime_cl.frame import Frame
 from runtime_cl.stochastic.samples import concentric_disc
+from runtime_cl.stochastic.thick import is_thick, pupil_boxes, thick_positions
 
 __all__ = ["FOOTPRINTS", "Recentred", "recentre", "pinhole_positions", "widened"]
 
@@ -106,12 +107,7 @@ def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
     dx, dy = concentric_disc(samples[..., 0], samples[..., 1])
     c = np.asarray(camera.coc_radius_px(np.asarray(depth, np.float64), w), np.float64)
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
-    px, py = xs - c * dx, ys - c * dy
-    if motion is not None:
-        lag = samples[..., 2].astype(np.float64) - 0.5
-        px = px - motion[..., 0] * lag
-        py = py + motion[..., 1] * lag          # motion Y is up, film y down
-    return np.stack([px, py], axis=-1)
+    return np.stack([xs - c * dx, ys - c * dy], axis=-1) - _motion_shift(samples, motion)
 
 
 def _deposits(pos, w: int, h: int, footprint: str) -> tuple:
@@ -162,17 +158,59 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     Returns
     -------
     Recentred
+
+    A thick lens (:mod:`runtime_cl.stochastic.thick`) re-centres each colour channel through the
+    lens at its own wavelength: its frames hold one channel each, their counts (H, W, C) that
+    channel's samples, and a sample whose ray the lens blocks is dropped (in every channel where
+    it blocks the middle channel's ray, as the stochastic input leaves those pixels empty).
     """
     if footprint not in FOOTPRINTS:
         raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)}")
+    options = dict(coc_bin_px=coc_bin_px, motion_bin_px=motion_bin_px, footprint=footprint, keep_outside=keep_outside)
+    motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
+    if not is_thick(camera):
+        return _recentre(frame, pinhole_positions(frame.depth, samples, camera, motion), camera, **options)
+    rgb = np.asarray(frame.rgb, np.float32)
+    boxes = pupil_boxes(camera, rgb.shape[:2])
+    positions = [thick_positions(frame.depth, samples, camera, c, boxes) - _motion_shift(samples, motion)
+                 for c in range(rgb.shape[2])]
+    # a pixel whose middle-wavelength ray the lens blocks is no sample (lab.reference.stochastic)
+    blocked = np.isnan(positions[rgb.shape[2] // 2][..., :1])
+    parts = []
+    for c, pos in enumerate(positions):
+        pos = np.where(blocked, np.nan, pos)
+        mono = np.zeros_like(rgb)
+        mono[..., c] = rgb[..., c]
+        rec = _recentre(replace(frame, rgb=mono), pos, camera, **options)
+        counts = []
+        for n in rec.counts:
+            k = np.zeros(n.shape[:2] + (rgb.shape[2],), np.float32)
+            k[..., c] = n[..., 0]
+            counts.append(k)
+        parts.append(replace(rec, counts=tuple(counts)))
+    return Recentred(sum((r.frames for r in parts), ()), sum((r.counts for r in parts), ()),
+                     sum(r.dropped for r in parts) / len(parts), max(r.max_shift_px for r in parts), 0)
+
+
+def _motion_shift(samples, motion) -> np.ndarray | float:
+    """(H, W, 2) film shift of each sample's surface from mid-shutter to its time (0 without
+    motion): ``m (t - 1/2)``, motion Y up, film y down."""
+    if motion is None:
+        return 0.0
+    lag = np.asarray(samples, np.float64)[..., 2] - 0.5
+    return np.stack([motion[..., 0] * lag, -motion[..., 1] * lag], axis=-1)
+
+
+def _recentre(frame: Frame, pos: np.ndarray, camera, coc_bin_px: float, motion_bin_px: float, footprint: str,
+              keep_outside: bool) -> Recentred:
+    """:func:`recentre` of the samples at pinhole positions ``pos`` ((H, W, 2); NaN: no sample)."""
     rgb = np.asarray(frame.rgb, np.float32)
     h0, w0, nc = rgb.shape
     depth = np.asarray(frame.depth, np.float64)
     alpha = frame.coverage()
     motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
-    pos = pinhole_positions(depth, samples, camera, motion)
     shift = pos - (np.stack(np.mgrid[0:h0, 0:w0][::-1], axis=-1) + 0.5)
-    largest = float(np.abs(shift).max(initial=0.0))
+    largest = float(np.nanmax(np.abs(shift), initial=0.0))
     margin = min(math.ceil(largest) + 1, max(h0, w0) // 2) if keep_outside and _widens(camera) else 0
     h, w = h0 + 2 * margin, w0 + 2 * margin
     src, target, weight = _deposits(pos.reshape(-1, 2) + margin, w, h, footprint)

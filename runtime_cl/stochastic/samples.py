@@ -7,7 +7,9 @@ pixel axes, x right and y down: :func:`concentric_disc`. ``time`` in [0, 1) is i
 as a fraction of the shutter. A surface that the pinhole at the lens centre sees at film position
 y' (in pixels) at time t is seen through lens point d at y = y' + c(Z) d, c the signed CoC
 radius in pixels (positive behind the focus plane), and moves on the film by the motion vector
-times t over the shutter.
+times t over the shutter. Through a thick lens (camera ``"lens": "thick"``) ``lens.U, lens.V``
+are instead the sample's exit-pupil box coordinates, from which the runtime re-traces its ray
+through the lens per channel (:mod:`runtime_cl.stochastic.thick`).
 """
 from __future__ import annotations
 

@@ -109,10 +109,15 @@ def test_bad_stochastic_command(work, capfd, args, needles):
         assert needle in err[0], (needle, err[0])
 
 
-def test_stochastic_command_refuses_the_thick_lens(work, capfd):
+def test_stochastic_command_writes_a_thick_lens_input(work):
+    """Through a thick lens: the exit-pupil box samples as lens.U, lens.V, the lens header, and
+    dark pixels only where the lens's rays are all blocked or see nothing."""
+    from lab.exr_io import read_labelled
     from lab.paths import SCENES
 
-    code = main(["stochastic", str(SCENES / "tiny_rain.toml"), "--out", str(work / "s.exr"), "--quiet"])
-    err = capfd.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1 and "this camera is 'thick'" in err[0], err
-    assert not (work / "s.exr").exists()
+    assert main(["stochastic", str(SCENES / "tiny_rain.toml"), "--out", str(work / "s.exr"), "--quiet"]) == 0
+    image = read_labelled(work / "s.exr")
+    assert image.camera["lens"] == "thick" and image.rgb.shape == (48, 64, 3)
+    for name in ("lens.U", "lens.V", "time"):
+        assert 0.0 <= image.extra[name].min() and image.extra[name].max() < 1.0
+    assert image.alpha.mean() > 0.5 and np.isfinite(image.rgb).all() and image.rgb.max() > 0

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["nonzero_box", "nonzero_pixels", "on_box", "union_box"]
+__all__ = ["box_shape", "grow_box", "inner_box", "nonzero_box", "nonzero_pixels", "on_box", "union_box"]
 
 
 def nonzero_pixels(a: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -45,13 +45,26 @@ def union_box(*boxes) -> tuple:
     return tuple(slice(min(b[k].start for b in boxes), max(b[k].stop for b in boxes)) for k in range(2))
 
 
+def box_shape(box: tuple) -> tuple:
+    """(h, w) of a box."""
+    return box[0].stop - box[0].start, box[1].stop - box[1].start
+
+
+def grow_box(box: tuple, by: int, shape: tuple) -> tuple:
+    """``box`` widened by ``by`` pixels on every side, clipped to the (H, W) frame ``shape``."""
+    return tuple(slice(max(b.start - by, 0), min(b.stop + by, n)) for b, n in zip(box, shape))
+
+
+def inner_box(box: tuple, outer: tuple) -> tuple:
+    """``box`` in the coordinates of the box ``outer`` that holds it."""
+    return tuple(slice(b.start - o.start, b.stop - o.start) for b, o in zip(box, outer))
+
+
 def on_box(image: np.ndarray, box: tuple, outer: tuple) -> np.ndarray:
     """``image`` (the pixels of ``box``) on the box ``outer`` that holds it, zero around it
     (``image`` itself if the boxes are the same)."""
     if box == outer:
         return image
-    out = np.zeros((outer[0].stop - outer[0].start, outer[1].stop - outer[1].start) + image.shape[2:],
-                   image.dtype)
-    out[box[0].start - outer[0].start:box[0].stop - outer[0].start,
-        box[1].start - outer[1].start:box[1].stop - outer[1].start] = image
+    out = np.zeros(box_shape(outer) + image.shape[2:], image.dtype)
+    out[inner_box(box, outer)] = image
     return out

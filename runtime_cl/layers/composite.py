@@ -65,7 +65,7 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 from runtime_cl.layers.over import over_kernel
-from runtime_cl.masks import nonzero_box, nonzero_pixels, on_box, union_box
+from runtime_cl.masks import box_shape, grow_box, inner_box, nonzero_box, nonzero_pixels, on_box, union_box
 
 __all__ = ["LayerPart", "LayerSplatter", "PixelLayer", "check_soft", "frame_image", "layer_edges",
            "render_layers"]
@@ -298,8 +298,8 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
         # outside the box of what the layer drew (its splats, its own sites' blur) "over" leaves
         # out as it is: it is composited on that box alone, and the blurs are made on the box
         # widened by their reach (the same values as blurring the whole frame)
-        box = union_box(drawn, _grow(union_box(*[b for b, _ in sites]), reach, (h, w)) if behind else None)
-        region = _grow(box, reach, (h, w))
+        box = union_box(drawn, grow_box(union_box(*[b for b, _ in sites]), reach, (h, w)) if behind else None)
+        region = grow_box(box, reach, (h, w))
         planes = []
         if index:
             nearer = sum(x.alpha[region] * f[index - 1][region] for x, f in zip(layers, front))
@@ -307,9 +307,9 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
                 planes.append(np.minimum(nearer, 1.0))
         has_hidden = bool(planes)
         if behind:
-            own = np.zeros(_shape(region), np.float32)
+            own = np.zeros(box_shape(region), np.float32)
             for b, alpha in sites:
-                own[_within(b, region)] += alpha
+                own[inner_box(b, region)] += alpha
             planes.append(np.minimum(own, 1.0))
         blurred = None
         if planes:   # the nearer layers' coverage and the layer's own sites: one blur of both
@@ -324,20 +324,6 @@ def render_layers(splatter: LayerSplatter, layers, n_layers: int, soft: float = 
             "transfer_ms": sum(x["transfer_ms"] for x in per_layer),
             "wall_ms": (time.perf_counter() - start) * 1e3}
     return out.astype(np.float32), info
-
-
-def _shape(box: tuple) -> tuple:
-    return box[0].stop - box[0].start, box[1].stop - box[1].start
-
-
-def _grow(box: tuple, by: int, shape: tuple) -> tuple:
-    """``box`` widened by ``by`` pixels on every side, clipped to the (H, W) frame ``shape``."""
-    return tuple(slice(max(b.start - by, 0), min(b.stop + by, n)) for b, n in zip(box, shape))
-
-
-def _within(box: tuple, outer: tuple) -> tuple:
-    """``box`` in the coordinates of the box ``outer`` that holds it."""
-    return tuple(slice(b.start - o.start, b.stop - o.start) for b, o in zip(box, outer))
 
 
 def _running_sums(weights: np.ndarray) -> list:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.device.opencl import Device, event_ms
+from runtime_cl.masks import box_shape, inner_box
 
 __all__ = ["OverKernel", "over_kernel"]
 
@@ -50,9 +51,10 @@ class OverKernel:
                 cl.Buffer(ctx, mf.READ_ONLY | mf.USE_HOST_PTR, hostbuf=np.ascontiguousarray(blurred)),
                 cl.Buffer(ctx, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=out),
                 cl.Buffer(ctx, mf.WRITE_ONLY | mf.USE_HOST_PTR, hostbuf=sums)]
+        at = inner_box(box, region)   # where the box lies in the blurs' region
         event = self.kernel(q, (groups * GROUP, bh), (GROUP, 1), *bufs, out.shape[1], box[0].start,
-                            box[1].start, bw, region[1].stop - region[1].start, box[0].start - region[0].start,
-                            box[1].start - region[1].start, has_hidden, has_own, min_known)
+                            box[1].start, bw, box_shape(region)[1], at[0].start, at[1].start, has_hidden,
+                            has_own, min_known)
         # mapping makes the host's arrays current (a no-op copy where PoCL used them in place)
         for buf, a in ((bufs[2], out), (bufs[3], sums)):
             mapped, _ = cl.enqueue_map_buffer(q, buf, cl.map_flags.READ, 0, a.shape, a.dtype, is_blocking=True)

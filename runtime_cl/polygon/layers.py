@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.layers.composite import LayerPart, frame_image
-from runtime_cl.masks import nonzero_box, union_box
+from runtime_cl.masks import box_shape, grow_box, inner_box, nonzero_box, union_box
 from runtime_cl.polygon.splat import PolygonSplatter
 
 __all__ = ["PolygonLayerSplatter"]
@@ -30,13 +30,12 @@ class PolygonLayerSplatter:
         window = self._window(parts, shape)
         if window is None:   # nothing to splat
             return np.zeros((1, 1, c1), np.float32), (slice(0, 1), slice(0, 1)), {"device_ms": 0.0, "transfer_ms": 0.0}
-        size = (window[0].stop - window[0].start, window[1].stop - window[1].start)
+        size = box_shape(window)
         # the canvas's fixed-point scale from the total |colour| (the parts hold all of it)
         canvas = sp.canvas(*size, c1, sum(float(np.abs(p.image).sum(dtype=np.float64)) for p in parts))
         device_ms = 0.0
         for part in parts:
-            moved = tuple(slice(b.start - w.start, b.stop - w.start) for b, w in zip(part.box, window))
-            image, coc = frame_image(LayerPart(moved, part.image, part.coc, part.source), size)
+            image, coc = frame_image(LayerPart(inner_box(part.box, window), part.image, part.coc, part.source), size)
             device_ms += sp.splat(canvas, image, np.abs(coc))["splat_ms"]
         resolved, info = sp.resolve(canvas)
         times = {"device_ms": device_ms + info["prefix_ms"] + info["sum_ms"],
@@ -53,8 +52,7 @@ class PolygonLayerSplatter:
         r_max = max(float(np.abs(p.coc).max()) for p in parts)
         table = self.splatter.table.ensure(r_max)
         reach = int(np.abs(table.bounds[:int(table.entry(np.float32(r_max))) + 1]).max()) + 1
-        box = union_box(*drawn)
-        return tuple(slice(max(b.start - reach, 0), min(b.stop + reach, n)) for b, n in zip(box, shape))
+        return grow_box(union_box(*drawn), reach, shape)
 
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.splatter.render(image, radius_px)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.errors import InputError
-from runtime_cl.masks import nonzero_box, on_box, union_box
+from runtime_cl.masks import grow_box, inner_box, nonzero_box, on_box, union_box
 
 __all__ = ["SpreadletLayerSplatter"]
 
@@ -67,8 +67,7 @@ class SpreadletLayerSplatter:
             return None, None, {"device_ms": 0.0, "transfer_ms": 0.0}
         # the part's non-zero pixels in a zero image of its window (the renderer's input)
         drawn = tuple(slice(b.start + t.start, b.start + t.stop) for b, t in zip(part.box, tight))
-        window = tuple(slice(max(d.start - self.reach, 0), min(d.stop + self.reach, n))
-                       for d, n in zip(drawn, shape))
+        window = grow_box(drawn, self.reach, shape)
         image = on_box(part.image[tight], drawn, window)
         crop, t = self.renderer.render(image, coords[window], self.method,
                                        angle=None if angle is None else angle[window],
@@ -101,8 +100,7 @@ class SpreadletLayerSplatter:
         # the renderer's image is a fresh array: on its own it is the sum (no zeros + add)
         out = on_box(*rendered[0], box)
         for crop, window in rendered[1:]:
-            out[window[0].start - box[0].start:window[0].stop - box[0].start,
-                window[1].start - box[1].start:window[1].stop - box[1].start] += crop
+            out[inner_box(window, box)] += crop
         return out, box, times
 
     def blur(self, image, radius_px: float) -> tuple:

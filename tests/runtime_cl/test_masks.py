@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from runtime_cl.masks import nonzero_box, nonzero_pixels, on_box, union_box
+from runtime_cl.masks import box_shape, grow_box, inner_box, nonzero_box, nonzero_pixels, on_box, union_box
 
 
 @pytest.mark.parametrize("channels", [None, 1, 4])
@@ -48,3 +48,10 @@ def test_boxes_unite_and_place_an_image():
     outer = union_box(a, b)
     assert np.array_equal(on_box(image, a, outer), frame[outer])
     assert on_box(image, a, a) is image   # the same box: no copy
+
+
+def test_boxes_grow_within_the_frame_and_move_into_another():
+    box = (slice(2, 5), slice(3, 9))
+    assert grow_box(box, 4, (7, 10)) == (slice(0, 7), slice(0, 10)) and box_shape(box) == (3, 6)
+    assert grow_box(box, 1, (20, 20)) == (slice(1, 6), slice(2, 10))
+    assert inner_box(box, (slice(1, 8), slice(2, 12))) == (slice(1, 4), slice(1, 7))

@@ -93,16 +93,25 @@ def scene_at(scene, width: int | None, reference_spp: int | None = None):
 
 
 def sizing_image(image, inputs):
-    """What the databases are sized by: the labelled input and the stochastic ones stacked
-    (same width): the stochastic samples also see what the pinhole does not (through the lens
-    rim, at other times), with depths and motions beyond the pinhole's range."""
+    """What the databases are sized by: the labelled input, its depth and motion ranges widened to
+    the stochastic inputs' (the stochastic samples also see what the pinhole does not: through the
+    lens rim, at other times). A few pixels take the extremes; the frame keeps its size, which a
+    lens's PSFs are traced for (eccentricity)."""
     from ..exr_io import LabelledImage
 
     names = [c for c in ("motion.X", "motion.Y") if c in image.extra]
-    stack = [image] + list(inputs)
-    return LabelledImage(np.concatenate([x.rgb for x in stack]), np.concatenate([x.alpha for x in stack]),
-                         np.concatenate([x.depth for x in stack]), image.camera,
-                         {c: np.concatenate([x.extra[c] for x in stack]) for c in names})
+    planes = {"Z": image.depth, **{c: image.extra[c] for c in names}}
+    out = {}
+    for name, plane in planes.items():
+        stack = [plane] + [x.depth if name == "Z" else x.extra[name] for x in inputs]
+        flat = np.array(plane, np.float32).ravel()
+        finite = [a[np.isfinite(a)] for a in map(np.asarray, stack)]
+        lo, hi = min(float(a.min()) for a in finite if a.size), max(float(a.max()) for a in finite if a.size)
+        live = np.flatnonzero(np.isfinite(flat))
+        order = live[np.argsort(flat[live], kind="stable")]
+        flat[order[0]], flat[order[-1]] = lo, hi   # one pixel each (a frame of one pixel: the far one)
+        out[name] = flat.reshape(plane.shape)
+    return LabelledImage(image.rgb, image.alpha, out["Z"], image.camera, {c: out[c] for c in names})
 
 
 def _frame(img, source: str):

@@ -26,6 +26,31 @@ def test_bm3d_denoises_with_the_oracle_sigma():
 
 
 @pytest.mark.slow
+def test_sizing_image_keeps_the_frame_and_spans_every_input():
+    """The databases are sized by the input's frame (a lens's PSFs depend on where a pixel lies)
+    with the depth and motion ranges of the input and the stochastic images together."""
+    from lab.exr_io import LabelledImage
+    from lab.report.table3 import sizing_image
+
+    rng = np.random.default_rng(1)
+
+    def image(lo, hi, m):
+        return LabelledImage(rng.random((6, 8, 3), dtype=np.float32), np.ones((6, 8), np.float32),
+                             rng.uniform(lo, hi, (6, 8)).astype(np.float32), {"lens": "pinhole"},
+                             {"motion.X": rng.uniform(-m, m, (6, 8)).astype(np.float32),
+                              "motion.Y": np.zeros((6, 8), np.float32)})
+
+    base, inputs = image(2.0, 3.0, 1.0), [image(1.0, 2.5, 4.0), image(2.5, 9.0, 0.5)]
+    inputs[1].depth[0, 0] = np.inf   # a stochastic sample that saw no surface
+    sized = sizing_image(base, inputs)
+    assert sized.depth.shape == (6, 8) and sized.rgb is base.rgb
+    far = inputs[1].depth[np.isfinite(inputs[1].depth)].max()
+    assert sized.depth.min() == min(x.depth.min() for x in inputs) and sized.depth.max() == far
+    mx = [x.extra["motion.X"] for x in [base] + inputs]
+    assert sized.extra["motion.X"].min() == min(a.min() for a in mx) and sized.extra["motion.X"].max() == max(a.max() for a in mx)
+    assert np.count_nonzero(sized.depth != base.depth) <= 2
+
+
 def test_table3_on_a_tiny_scene(tmp_path, monkeypatch):
     monkeypatch.setenv("SPLATLAB_CACHE", str(tmp_path / "cache"))
     assert main([str(SCENES / "tiny.toml"), "--size", "32", "--out", str(tmp_path / "t3")]) == 0

@@ -25,7 +25,6 @@ def test_bm3d_denoises_with_the_oracle_sigma():
     assert psnr(denoised, clean) > psnr(noisy, clean) + 6.0
 
 
-@pytest.mark.slow
 def test_sizing_image_keeps_the_frame_and_spans_every_input():
     """The databases are sized by the input's frame (a lens's PSFs depend on where a pixel lies)
     with the depth and motion ranges of the input and the stochastic images together."""
@@ -51,6 +50,7 @@ def test_sizing_image_keeps_the_frame_and_spans_every_input():
     assert np.count_nonzero(sized.depth != base.depth) <= 2
 
 
+@pytest.mark.slow
 def test_table3_on_a_tiny_scene(tmp_path, monkeypatch):
     monkeypatch.setenv("SPLATLAB_CACHE", str(tmp_path / "cache"))
     assert main([str(SCENES / "tiny.toml"), "--size", "32", "--out", str(tmp_path / "t3")]) == 0

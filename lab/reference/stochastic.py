@@ -138,7 +138,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     Parameters
     ----------
     scene : Scene
-        A thin-lens (round, iris or shaped aperture) or pinhole scene.
+        A pinhole, thin-lens (round, iris or shaped aperture) or thick-lens scene.
     index : int
         Which independent image (seeds: :func:`stochastic_seed`); 4 spp is images 0-3.
     max_motion_px : float
@@ -223,7 +223,7 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
     Parameters
     ----------
     scene : Scene
-        A thin-lens (round, iris or shaped aperture) or pinhole scene.
+        A pinhole, thin-lens (round, iris or shaped aperture) or thick-lens scene.
     index : int
         Which independent image (seeds: :func:`stochastic_seed`); 4 spp is images 0-3.
     max_motion_px : float

@@ -6,7 +6,7 @@ temporaries (~45 ms a frame for the demo's 4 layers at 1024^2 on 2 cores); this 
 one pass, a pixel per work item in work-groups along a row, on the host's own arrays (PoCL's CPU
 device reads and writes them in place), with the same float32 operations in the same order: the
 image is the same to the last bit. It also returns the layer's coverage before and after the
-re-weighting (summed per work-group: a work item per row ran 1.6x slower, its rows vectorised
+re-weighting (summed per work-group: a work item per row ran 2x slower, its rows vectorised
 across work items).
 """
 from __future__ import annotations

@@ -160,9 +160,9 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     Recentred
 
     A thick lens (:mod:`runtime_cl.stochastic.thick`) re-centres each colour channel through the
-    lens at its own wavelength: its frames hold one channel each, their counts (H, W, C) that
-    channel's samples, and a sample whose ray the lens blocks is dropped (in every channel where
-    it blocks the middle channel's ray, as the stochastic input leaves those pixels empty).
+    lens at its own wavelength: its frames hold one channel each and their counts (H, W, C) that
+    channel's samples. A channel's sample whose ray the lens blocks is dropped, and so is every
+    channel of a pixel whose middle-channel ray it blocks (the stochastic input leaves it empty).
     """
     if footprint not in FOOTPRINTS:
         raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)}")

@@ -236,7 +236,8 @@ def _recentre(frame: Frame, pos: np.ndarray, camera, coc_bin_px: float, motion_b
     first = np.r_[0, np.flatnonzero(np.diff(entry_target)) + 1]
     slot = np.arange(n) - np.repeat(first, np.diff(np.r_[first, n]))
     frames, counts = [], []
-    for k in range(int(slot.max(initial=-1)) + 1):
+    # at least one frame: with no sample at all (a lens that blocked every ray) an empty one
+    for k in range(max(int(slot.max(initial=-1)) + 1, 1)):
         sel = slot == k
         t = entry_target[sel]
         f_rgb = np.zeros((h * w, nc), np.float32)

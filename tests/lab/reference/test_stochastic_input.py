@@ -113,6 +113,25 @@ def test_thick_lens_recentres_each_channel_through_its_wavelength():
     assert np.all((0.5 * h * w < total) & (total < h * w))   # the blocked rays are left out
 
 
+def test_a_thick_lens_that_blocks_every_ray_reconstructs_black():
+    """Box samples in a corner of every pixel's exit-pupil box, outside the round pupil: the lens
+    blocks every ray, so there is no sample; the stochastic pass renders black, not an error."""
+    from runtime_cl.frame import Frame
+    from runtime_cl.passes import run_pass
+    from runtime_cl.psf.synthetic import disc_database
+    from runtime_cl.stochastic.recentre import recentre
+
+    scene = load_scene(SCENES / "tiny_rain.toml")
+    camera = scene.camera.runtime_camera()
+    h, w = scene.height, scene.width
+    samples = np.zeros((h, w, 3), np.float32)
+    frame = Frame(np.ones((h, w, 3), np.float32), np.full((h, w), 2.0, np.float32), samples=samples)
+    rec = recentre(frame, samples, camera)
+    assert len(rec.frames) == 3 and rec.dropped == h * w and not any(np.any(f.rgb) for f in rec.frames)
+    image, _ = run_pass("stochastic_splat", frame, camera, disc_database(4.0, samples=4), normalize=True)
+    assert image.shape == (h, w, 3) and not np.any(image)
+
+
 def test_shading_spp_keeps_the_visibility_sample_and_lowers_the_noise():
     scene = _tiny(size=24)
     one, many = trace_samples(scene, shading_spp=1), trace_samples(scene, shading_spp=16)

@@ -82,3 +82,27 @@ def test_the_far_field_completes_the_volume_window_across_the_frame():
     assert model_table(psf(volume_far={"pixel_scale": 3}), "volume_far", _image(2.0))["psf_resolution"] == 15
     with pytest.raises(UserError, match=r"\[psf.volume_far\] hole_half_px = 7: .*hole_half_px = 2"):
         model_table(psf(volume_far={"hole_half_px": 7}), "volume_far", _image(2.0))
+
+
+def test_a_guard_banded_input_sets_the_lens_database_sensor():
+    """A thick lens's PSFs depend on where a pixel lies on the sensor: with a guard band the
+    input's sensor is wider than the scene's at the same pixel pitch, and the database is traced
+    for the input's (the scene's width with the guarded pixel count put the margin's pixels at the
+    wrong eccentricities, and the render's fingerprint check refused the pair)."""
+    from dataclasses import replace
+
+    from lab.paths import SCENES
+    from lab.reference.guard_band import guarded_scene
+    from lab.scene import load_scene
+
+    scene = load_scene(SCENES / "tiny_rain.toml")
+    guarded = guarded_scene(scene, 5)
+    h, w = guarded.height, guarded.width
+    image = LabelledImage(np.zeros((h, w, 3), np.float32), np.ones((h, w), np.float32),
+                          np.full((h, w), 2.0, np.float32), guarded.camera.camera_json())
+    table = model_table(scene, "physical_lens", image)
+    assert table["width_px"] == w == scene.width + 10
+    assert table["sensor_width_mm"] == pytest.approx(scene.camera.sensor_width_mm * w / scene.width)
+    assert table["sensor_height_mm"] == pytest.approx(table["sensor_width_mm"] * h / w)
+    plain = model_table(scene, "physical_lens", replace(image, camera={}))   # no header: the scene's sensor
+    assert plain["sensor_width_mm"] == scene.camera.sensor_width_mm

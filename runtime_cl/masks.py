@@ -35,8 +35,7 @@ def nonzero_box(a: np.ndarray, grow: int = 0) -> tuple | None:
     r0, r1 = int(rows[0]), int(rows[-1]) + 1
     cols = flat[r0:r1].any(axis=0)
     cols = np.flatnonzero(cols.reshape(w, -1).any(axis=1) if a.ndim == 3 else cols)
-    return (slice(max(r0 - grow, 0), min(r1 + grow, h)),
-            slice(max(int(cols[0]) - grow, 0), min(int(cols[-1]) + 1 + grow, w)))
+    return grow_box((slice(r0, r1), slice(int(cols[0]), int(cols[-1]) + 1)), grow, (h, w))
 
 
 def union_box(*boxes) -> tuple:

@@ -33,7 +33,8 @@ import functools
 import numpy as np
 
 from runtime_cl.stochastic.samples import inverse_concentric
-from runtime_cl.stochastic.thick import backward_rays, pupil_boxes
+from runtime_cl.camera.exit_pupil import PupilBoxes
+from runtime_cl.stochastic.thick import backward_rays
 
 from ..errors import UserError
 from ..exr_io import LabelledImage
@@ -125,7 +126,7 @@ def thick_rays(camera, sensor, shape, film, lens, channel: int, t_abs: float) ->
 
 @functools.lru_cache(maxsize=4)
 def _boxes(camera, shape):
-    return pupil_boxes(camera, shape)
+    return PupilBoxes.for_camera(camera, shape)
 
 
 def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shading_spp: int = 1) -> dict:

@@ -114,6 +114,17 @@ class PupilBoxes:
                           np.maximum(box[:-1, 2], box[1:, 2]) + margin], axis=1)
         return cls(probe.lens, probe.origin_z_mm, gap, float(radii[1]), boxes)
 
+    @classmethod
+    def for_camera(cls, camera, shape) -> "PupilBoxes":
+        """The boxes of a :class:`~runtime_cl.camera.thick_lens.ThickLens` for an (H, W) image: up
+        to the sensor's half diagonal, and a tilted sensor's reach along the axis."""
+        h, w = (int(s) for s in shape)
+        mm_px = camera.sensor_width_mm / w
+        half_w, half_h = 0.5 * mm_px * w, 0.5 * mm_px * h
+        gx, gy = camera.sensor_slopes() if getattr(camera, "tilted", False) else (0.0, 0.0)
+        return cls.build(TracedLens.from_camera(camera), math.hypot(half_w, half_h),
+                         shift_mm=abs(gx) * half_w + abs(gy) * half_h)
+
     def sample(self, sx, sy, u1, u2) -> tuple:
         """Plane points for sensor points (sx, sy) from uniform u1, u2 in [0, 1) (numpy, float64):
         uniform in the box of the point's radius turned to its azimuth; (qx, qy)."""

@@ -56,9 +56,7 @@ class ThickLayerTracer(LayerTracer):
         self.channels = len(lens.eta)
         self.mm_px = camera.sensor_width_mm / w
         self.slopes = camera.sensor_slopes() if getattr(camera, "tilted", False) else (0.0, 0.0)
-        half_w, half_h = 0.5 * self.mm_px * w, 0.5 * self.mm_px * h
-        shift = abs(self.slopes[0]) * half_w + abs(self.slopes[1]) * half_h   # the tilted sensor's reach
-        self.pupil = PupilBoxes.build(lens, math.hypot(half_w, half_h), shift_mm=shift)
+        self.pupil = PupilBoxes.for_camera(camera, (h, w))
         self.f_px = camera.focal_px(w)
         self.pupil_z = float(camera.pupil_z_mm)
         self.coc_scale = float(camera.coc_scale_px(w))

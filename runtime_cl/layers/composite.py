@@ -67,8 +67,7 @@ from runtime_cl.errors import InputError
 from runtime_cl.layers.over import over_kernel
 from runtime_cl.masks import box_shape, grow_box, inner_box, nonzero_box, nonzero_pixels, on_box, union_box
 
-__all__ = ["LayerPart", "LayerSplatter", "PixelLayer", "check_soft", "frame_image", "layer_edges",
-           "render_layers"]
+__all__ = ["LayerPart", "LayerSplatter", "PixelLayer", "check_soft", "layer_edges", "render_layers"]
 
 # Least known fraction a hole fill trusts: with less known around it fades out instead of
 # blowing up a few stray splats (a hard cut-off would draw its outline through the layers in front).
@@ -111,13 +110,6 @@ class LayerPart:
     image: np.ndarray
     coc: np.ndarray
     source: int
-
-
-def frame_image(part: LayerPart, shape: tuple) -> tuple:
-    """``part``'s image and CoC in zero (H, W) frames (``shape``), for splatters that draw on the
-    whole frame."""
-    frame = (slice(0, shape[0]), slice(0, shape[1]))
-    return on_box(part.image, part.box, frame), on_box(part.coc, part.box, frame)
 
 
 @dataclass(frozen=True)

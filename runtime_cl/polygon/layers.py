@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from runtime_cl.layers.composite import LayerPart, frame_image
-from runtime_cl.masks import box_shape, grow_box, inner_box, nonzero_box, union_box
+from runtime_cl.masks import box_shape, grow_box, inner_box, nonzero_box, on_box, union_box
 from runtime_cl.polygon.splat import PolygonSplatter
 
 __all__ = ["PolygonLayerSplatter"]
@@ -34,29 +33,29 @@ class PolygonLayerSplatter:
         # the canvas's fixed-point scale from the total |colour| (the parts hold all of it)
         canvas = sp.canvas(*size, c1, sum(float(np.abs(p.image).sum(dtype=np.float64)) for p in parts))
         device_ms = 0.0
+        whole = (slice(0, size[0]), slice(0, size[1]))
         for part in parts:
-            image, coc = frame_image(LayerPart(inner_box(part.box, window), part.image, part.coc, part.source), size)
-            device_ms += sp.splat(canvas, image, np.abs(coc))["splat_ms"]
+            at = inner_box(part.box, window)
+            radius = np.abs(on_box(part.coc, at, whole))
+            device_ms += sp.splat(canvas, on_box(part.image, at, whole), radius)["splat_ms"]
         resolved, info = sp.resolve(canvas)
         times = {"device_ms": device_ms + info["prefix_ms"] + info["sum_ms"],
                  "transfer_ms": info["download_ms"]}
         return resolved, window, times
 
     def _window(self, parts: list, shape: tuple) -> tuple | None:
-        """The parts' boxes widened by the reach of the largest polygon they draw (every term of
-        every kernel up to it: :attr:`RadiusTable.bounds`), clipped to the frame; None if no part
-        has a non-zero pixel."""
+        """The parts' boxes widened by the reach of the largest polygon they draw
+        (:meth:`PolygonSplatter.reach`), clipped to the frame; None if no part has a non-zero
+        pixel."""
         drawn = [p.box for p in parts if nonzero_box(p.image) is not None]
         if not drawn:
             return None
         r_max = max(float(np.abs(p.coc).max()) for p in parts)
-        table = self.splatter.table.ensure(r_max)
-        reach = int(np.abs(table.bounds[:int(table.entry(np.float32(r_max))) + 1]).max()) + 1
-        return grow_box(union_box(*drawn), reach, shape)
+        return grow_box(union_box(*drawn), self.splatter.reach(r_max), shape)
 
     def blur(self, image, radius_px: float) -> tuple:
         out, info = self.splatter.render(image, radius_px)
         return out, {"device_ms": info["kernel_ms"], "transfer_ms": info["transfer_ms"]}
 
     def blur_reach(self, radius_px: float) -> int:
-        return int(np.abs(self.splatter.polygon(float(radius_px))).max()) + 1
+        return self.splatter.reach(radius_px)

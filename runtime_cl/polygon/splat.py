@@ -131,6 +131,12 @@ class PolygonSplatter:
         """:class:`~runtime_cl.polygon.terms.PolygonTerms` used at ``radius`` (float32-rounded)."""
         return self.table.at(radius)
 
+    def reach(self, radius: float) -> int:
+        """How far from its pixel any kernel up to ``radius`` writes (px): the largest offset of
+        their terms (:attr:`RadiusTable.bounds`), + 1."""
+        table = self.table.ensure(float(radius))
+        return int(np.abs(table.bounds[:int(table.entry(np.float32(radius))) + 1]).max()) + 1
+
     def polygon(self, radius: float) -> np.ndarray:
         """Integer vertices of the kernel at ``radius``; rasterise them for a reference."""
         return self.table.polygon(radius)

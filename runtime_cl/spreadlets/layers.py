@@ -108,4 +108,4 @@ class SpreadletLayerSplatter:
         return out, {"device_ms": info["kernel_ms"], "transfer_ms": info["transfer_ms"]}
 
     def blur_reach(self, radius_px: float) -> int:
-        return int(np.abs(self.blur_splatter.polygon(float(radius_px))).max()) + 1
+        return self.blur_splatter.reach(radius_px)

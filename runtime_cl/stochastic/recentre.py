@@ -35,7 +35,8 @@ import numpy as np
 from runtime_cl.errors import InputError
 from runtime_cl.frame import Frame
 from runtime_cl.stochastic.samples import concentric_disc
-from runtime_cl.stochastic.thick import is_thick, pupil_boxes, thick_positions
+from runtime_cl.camera.exit_pupil import PupilBoxes
+from runtime_cl.stochastic.thick import is_thick, thick_positions
 
 __all__ = ["FOOTPRINTS", "Recentred", "recentre", "pinhole_positions", "widened"]
 
@@ -171,7 +172,7 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     if not is_thick(camera):
         return _recentre(frame, pinhole_positions(frame.depth, samples, camera, motion), camera, **options)
     rgb = np.asarray(frame.rgb, np.float32)
-    boxes = pupil_boxes(camera, rgb.shape[:2])
+    boxes = PupilBoxes.for_camera(camera, rgb.shape[:2])
     positions = [thick_positions(frame.depth, samples, camera, c, boxes) - _motion_shift(samples, motion)
                  for c in range(rgb.shape[2])]
     # a pixel whose middle-wavelength ray the lens blocks is no sample (lab.reference.stochastic)

@@ -15,31 +15,16 @@ A ray the lens blocks is no sample.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from runtime_cl.camera.exit_pupil import PupilBoxes
-from runtime_cl.camera.lens_trace import TracedLens
 
-__all__ = ["backward_rays", "is_thick", "pupil_boxes", "ray_lines", "thick_positions"]
+__all__ = ["backward_rays", "is_thick", "ray_lines", "thick_positions"]
 
 
 def is_thick(camera) -> bool:
     """Whether ``camera`` re-centres through its lens (:func:`thick_positions`)."""
     return getattr(camera, "lens", None) == "thick"
-
-
-def pupil_boxes(camera, shape) -> PupilBoxes:
-    """The exit-pupil boxes of ``camera`` for an (H, W) image: the sensor's half diagonal, and a
-    tilted sensor's reach along the axis (as :class:`~runtime_cl.layered.thick_tracer.
-    ThickLayerTracer` builds them)."""
-    h, w = (int(s) for s in shape)
-    mm_px = camera.sensor_width_mm / w
-    half_w, half_h = 0.5 * mm_px * w, 0.5 * mm_px * h
-    gx, gy = camera.sensor_slopes() if camera.tilted else (0.0, 0.0)
-    return PupilBoxes.build(TracedLens.from_camera(camera), math.hypot(half_w, half_h),
-                            shift_mm=abs(gx) * half_w + abs(gy) * half_h)
 
 
 def backward_rays(camera, boxes: PupilBoxes, shape, film_xy, uv, channel) -> tuple:
@@ -49,7 +34,7 @@ def backward_rays(camera, boxes: PupilBoxes, shape, film_xy, uv, channel) -> tup
     ----------
     camera : ThickLens
     boxes : PupilBoxes
-        :func:`pupil_boxes` of the camera and ``shape``.
+        :meth:`PupilBoxes.for_camera` of the camera and ``shape``.
     shape : (H, W)
     film_xy : (m, 2)
         Film positions in pixels (x right, y down; pixel centres at i + 0.5).
@@ -100,7 +85,7 @@ def thick_positions(depth, samples, camera, channel: int, boxes: PupilBoxes | No
     ray from its centre through its box sample (``samples[..., :2]``), at its depth; NaN where
     the lens blocks the ray."""
     h, w = np.shape(depth)
-    boxes = boxes or pupil_boxes(camera, (h, w))
+    boxes = boxes or PupilBoxes.for_camera(camera, (h, w))
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
     film = np.stack([xs.ravel(), ys.ravel()], axis=1)
     a, b, _ = ray_lines(camera, boxes, (h, w), film, np.asarray(samples, np.float64)[..., :2].reshape(-1, 2), channel)

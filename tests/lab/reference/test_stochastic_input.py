@@ -72,14 +72,15 @@ def test_thick_lens_samples_return_to_the_pinhole_projections():
     (:func:`runtime_cl.stochastic.thick.ray_lines`), is the line whose point at the depth the ray
     hit is the pinhole projection of that hit point (the sub-pixel offset given, as it is not to
     the runtime). A ray turned or mirrored would miss by up to the lens's blur."""
-    from runtime_cl.stochastic.thick import pupil_boxes, ray_lines
+    from runtime_cl.camera.exit_pupil import PupilBoxes
+    from runtime_cl.stochastic.thick import ray_lines
 
     scene = load_scene(SCENES / "tiny_rain.toml")
     tr = trace_samples(scene)
     h, w = scene.height, scene.width
     camera = scene.camera.runtime_camera()
     film = np.stack([np.arange(h * w) % w, np.arange(h * w) // w], axis=1) + tr["jitter"]
-    a, b, ok = ray_lines(camera, pupil_boxes(camera, (h, w)), (h, w), film, tr["lens"], 1)
+    a, b, ok = ray_lines(camera, PupilBoxes.for_camera(camera, (h, w)), (h, w), film, tr["lens"], 1)
     hit = np.isfinite(tr["depth"])
     assert hit.mean() > 0.5 and np.array_equal(hit & ok, hit)   # a blocked ray hits nothing
     got = a[hit] + b[hit] / tr["depth"][hit, None]

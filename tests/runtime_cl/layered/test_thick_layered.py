@@ -9,6 +9,7 @@ from runtime_cl.camera.exit_pupil import PupilBoxes
 from runtime_cl.camera.lens_trace import TracedLens
 from runtime_cl.layered.thick_tracer import ThickLayerTracer
 from runtime_cl.layered.tracer import layer_stack
+from runtime_cl.stochastic.thick import ray_lines
 
 W, H = 128, 64
 
@@ -43,7 +44,8 @@ def numpy_lines(cam, pupil, pixel_u, channel):
 def test_kernel_rays_are_the_lens_rays_as_image_lines(lens):
     """The kernel's (a, b) per ray equal the lines of the float64 twin's rays through the lens,
     found independently by projecting two points of each ray (500 mm and 5 m along it); blocked
-    rays agree. Tolerance: float32 tracing (~1e-5 mm at the lens) moves a line by < 1e-3 px."""
+    rays agree. Tolerance: float32 tracing (~1e-5 mm at the lens) moves a line by < 1e-3 px. The
+    re-centring's float64 lines of the same rays match the projected ones to rounding."""
     cam = camera(lens=lens).runtime_camera()
     tracer = ThickLayerTracer(cam, (H, W), 1, 4)
     rng = np.random.default_rng(1)
@@ -58,6 +60,10 @@ def test_kernel_rays_are_the_lens_rays_as_image_lines(lens):
     both = ok & (weight > 0)
     np.testing.assert_allclose(got[both], ref[both], atol=2e-3, rtol=1e-4)
     np.testing.assert_allclose(weight[both], cos4[both], rtol=1e-5)
+    # the stochastic re-centring's numpy lines (runtime_cl/stochastic/thick.py) are the same lines
+    a, b, lines_ok = ray_lines(cam, tracer.pupil, (H, W), pixel_u[:, :2], pixel_u[:, 2:], channel)
+    assert np.array_equal(lines_ok, ok)
+    np.testing.assert_allclose(np.concatenate([a, b], axis=1)[ok], ref[ok], atol=1e-6, rtol=1e-9)
 
 
 def test_pupil_boxes_hold_the_labs_boxes():

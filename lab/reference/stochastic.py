@@ -2,9 +2,10 @@
 the scene's own camera, with the pixel's lens sample and shutter time as channels.
 
 Each pixel gets its own sub-pixel position (the box filter the references use), lens sample
-(u, v) and shutter time t, and one path traced with the scene's integrator (``path``; ``volpath``
-in a medium) through the camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped
-aperture the reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A thick
+(u, v) and shutter time t, and one path traced with the scene's integrator (``path``) through the
+camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped aperture the reference's own
+sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A ``[medium]`` is left out, as from
+the labelled input: the runtime's volume PSFs add it (tracing it here would add it twice). A thick
 lens's pixel sends one ray per channel, through the same exit-pupil box sample at the channel's
 wavelength, traced backward through the lens as the runtime re-traces it to re-centre the sample
 (:mod:`runtime_cl.stochastic.thick`); R, G and B are the three rays' radiances, and Z, A and the
@@ -160,7 +161,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     k = subframes_for(max_motion_px) if moves else 1
     slot = rng.integers(0, k, h * w)
     mi_seeds = rng.integers(0, 2**31, k)
-    mi_scene = load(scene, "scene", medium=True)
+    mi_scene = load(scene, "scene")   # no medium: the runtime adds it, as to the labelled input
     thick = scene.camera.runtime_camera() if scene.camera.model == "thick" else None
     animator = Animator(scene, mi_scene) if moves else None
     sensor, integrator = mi_scene.sensors()[0], mi_scene.integrator()

@@ -5,8 +5,10 @@ shutter time per pixel), reconstructed by spreadlets and by Splat on re-centred 
 (:mod:`runtime_cl.passes.stochastic`), and denoised by BM3D (the ``bm3d`` package) as LSR18's
 baseline; SSIM on the report tonemap against the scene's path-traced reference. Each pass
 runs as LSR18 (the plain sum), normalised by the splatted sample density (``+norm``, see
-:mod:`runtime_cl.passes.stochastic`) and as the full reconstruction (``+fill``: :data:`FULL`). Also 4 spp:
-four independent 1-spp images, reconstructed each and averaged (reconstruction is linear).
+:mod:`runtime_cl.passes.stochastic`) and as the full reconstruction (``+fill``: :data:`FULL`); a
+medium's database (fog) as the plain sum alone, which its still pinhole's samples need (the pass
+refuses to normalise by counts its PSFs attenuate). Also 4 spp: four independent 1-spp images,
+reconstructed each and averaged (reconstruction is linear).
 
 BM3D runs on the tonemapped input (what a viewer sees; in linear radiance, clipped, it scored
 lower on the demo) with an *oracle* noise level: the standard deviation of the tonemapped
@@ -127,6 +129,7 @@ def _frame(img, source: str):
 
 def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, shading_spp: int = 1) -> dict:
     """Every figure of one scene's Table 3 row; writes its PNGs into ``out_dir``."""
+    from runtime_cl.coords.maps import attenuates
     from runtime_cl.passes import get_pass, run_pass
     from runtime_cl.psf.database import SpreadletDatabase
     from runtime_cl.psf.far_field import MODEL as FAR_FIELD
@@ -144,7 +147,8 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
     inputs = [stochastic_input(scene, i, shading_spp, image, progress) for i in range(4 if spp4 else 1)]
     input_s = round(time.perf_counter() - t0, 2)
     dbs = build_databases(scene, plan, sizing_image(image, inputs), progress=progress)
-    dbs = {m: SpreadletDatabase.load(r.path, expect_model=m) for m, r in dbs.items() if m != FAR_FIELD}
+    dbs = {m: SpreadletDatabase.load(r.path, expect_model=m) for m, r in dbs.items()}
+    far = dbs.pop(FAR_FIELD, None)   # completes the volume database's render (its halos beyond the window)
     frames = [_frame(img, f"{scene.name} stochastic input {i}") for i, img in enumerate(inputs)]
     camera = runtime_camera(image)
     row = {"scene": scene.name, "size": [scene.width, scene.height], "models": sorted(dbs),
@@ -162,6 +166,10 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
             if cls.database_models is not None and model not in cls.database_models:
                 continue
             label = (name if len(dbs) == 1 else f"{name}:{model}") + suffix
+            if options.get("normalize") and attenuates(model):
+                continue   # the pass refuses it: a medium's PSFs carry its loss (no sample density)
+            if far is not None and model == "volume":
+                options = dict(options, far_field=far)
             rendered, timing = run_pass(name, frames[0], camera, db, runs=TIMED_RUNS, **options)
             entry = {"time_ms": timing.time_ms, "slots": timing.counts.get("slots"),
                      "ssim": ssim(rendered[..., :3], reference), "psnr": psnr(rendered[..., :3], reference)}

@@ -50,19 +50,21 @@ class PsfCoords(NamedTuple):
 @dataclass(frozen=True)
 class CoordinateMap:
     """A registered map ``fn(camera, depth, db, motion) -> PsfCoords``; ``motion``: whether it
-    needs per-pixel motion vectors."""
+    needs per-pixel motion vectors; ``attenuates``: whether the model's light loses energy on the
+    way (a medium's absorption and out-scatter), so its PSFs, with the ``direct`` term, do not sum to 1."""
 
     fn: Callable
     motion: bool
+    attenuates: bool = False
 
 
 COORDINATE_MAPS: dict = {}
 
 
-def register(model: str, motion: bool = False):
-    """Decorator: register a coordinate map for database model ``model``."""
+def register(model: str, motion: bool = False, attenuates: bool = False):
+    """Decorator: register a coordinate map for database model ``model`` (see :class:`CoordinateMap`)."""
     def wrap(fn):
-        COORDINATE_MAPS[model] = CoordinateMap(fn, motion)
+        COORDINATE_MAPS[model] = CoordinateMap(fn, motion, attenuates)
         return fn
     return wrap
 

@@ -63,7 +63,7 @@ def physical_lens_coords(camera, depth, db: SpreadletDatabase, motion=None) -> P
     return PsfCoords(np.stack([depth32, ecc32], axis=-1), wrap_angle(angle))
 
 
-@register("volume")
+@register("volume", attenuates=True)
 def volume_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfCoords:
     """``volume``: the distance in metres between the camera and the point each pixel sees.
 

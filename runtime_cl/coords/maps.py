@@ -30,7 +30,7 @@ from runtime_cl.coords.defocus import thin_lens_coords
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.errors import InputError
 
-__all__ = ["COORDINATE_MAPS", "PsfCoords", "needs_motion", "psf_coords", "thin_lens_coords"]
+__all__ = ["COORDINATE_MAPS", "PsfCoords", "attenuates", "needs_motion", "psf_coords", "thin_lens_coords"]
 
 
 def _map(model: str):
@@ -44,6 +44,12 @@ def _map(model: str):
 def needs_motion(model: str) -> bool:
     """Whether a database of ``model`` needs per-pixel motion vectors (``combined``)."""
     return _map(model).motion
+
+
+def attenuates(model: str) -> bool:
+    """Whether a database of ``model`` carries a medium's energy loss (``volume``, ``volume_box``):
+    its render of a white image is not white."""
+    return _map(model).attenuates
 
 
 def psf_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfCoords:

@@ -95,7 +95,7 @@ def header_box(db: SpreadletDatabase) -> dict:
     return box
 
 
-@register("volume_box")
+@register("volume_box", attenuates=True)
 def volume_box_coords(camera, depth, db: SpreadletDatabase, motion=None) -> PsfCoords:
     """``volume_box``: (camera gap, length in the box, gap behind it) per pixel, with the exact
     unscattered light ``direct`` and the ``gain`` of the scattered light (module docstring)."""

@@ -11,7 +11,12 @@ with the same PSFs and divides the colour by that density (at least ``min_densit
 re-centred samples of one surface lie at random places, so their plain sum fluctuates by about
 1 / sqrt(pi r^2) of a CoC of radius r even where the colour is constant; the ratio does not.
 Where surfaces of different depths mix (a focused background behind a blurred occluder) the
-ratio leans towards the blurred surface, so it trades that noise for a bias there.
+ratio leans towards the blurred surface, so it trades that noise for a bias there. A medium's
+database (``volume``, ``volume_box``) refuses it: its PSFs carry the medium's loss, so the splatted
+counts are no density (and its still pinhole puts every sample on its own pixel anyway).
+
+A medium is not in the input (:mod:`lab.reference.stochastic` leaves it out, as from the labelled
+input): the volume PSFs add it, and option ``far_field`` the halos beyond their window.
 
 Option ``keep_outside`` (default True): samples re-centred outside the image (they saw a surface
 beyond the frame through the lens) are splatted from a margin around it with the camera widened at
@@ -24,6 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from runtime_cl.coords.maps import attenuates
 from runtime_cl.errors import InputError
 from runtime_cl.passes.registry import register_pass
 from runtime_cl.passes.spreadlets import SplatPass, SpreadletsPass
@@ -41,7 +47,7 @@ class _Stochastic:
 
     channels = ("R", "G", "B", "Z") + CHANNELS
     layered = False     # re-centred slots are flat frames: no depth layers of their own
-    far_field = False   # stochastic inputs have no medium (lab.reference.stochastic refuses fog)
+    far_field = True    # the input has no medium (as the labelled input): the volume PSFs add it
 
     def configure(self, *, normalize: bool = False, min_density: float = 0.25, footprint: str = "nearest",
                   fill: bool = True, depth_layers: int = 1, keep_outside: bool = True, **options):
@@ -57,6 +63,11 @@ class _Stochastic:
         if not isinstance(fill, bool):
             raise InputError(f"fill = {fill!r}: give True (fill low sample density from coarser pixels) or False "
                              "(divide by at least min_density)")
+        if normalize and attenuates(self.db.model):
+            raise InputError(f"normalize = True: a {self.db.model!r} database's PSFs carry the medium's loss, so "
+                             "splatting the sample counts with them is no sample density (dividing by it would undo "
+                             "the medium); give normalize = False (a medium's camera is a still pinhole: every sample "
+                             "is on its own pixel)")
         if check_layers(depth_layers) > 1 and not normalize:
             raise InputError(f"depth_layers = {depth_layers!r}: a layer's opacity is its sample density, which only "
                              "the normalised reconstruction splats; give normalize = True or depth_layers = 1")

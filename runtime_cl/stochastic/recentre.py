@@ -80,13 +80,17 @@ def _widens(camera) -> bool:
 
 def widened(camera, width: int, margin: int):
     """``camera`` for an image ``margin`` px wider on every side at the same pixel pitch, so CoCs
-    in pixels stay those of the ``width``-px image (a pinhole has none: unchanged)."""
-    if margin == 0 or getattr(camera, "lens", None) == "pinhole":
+    in pixels, and every pixel's direction (a medium's light distance), stay those of the
+    ``width``-px image."""
+    if margin == 0:
         return camera
+    scale = (width + 2 * margin) / width
+    if getattr(camera, "lens", None) == "pinhole":   # the field of view widens
+        return replace(camera, fov_deg=math.degrees(2 * math.atan(math.tan(math.radians(camera.fov_deg) / 2) * scale)))
     if not _widens(camera):
         raise InputError(f"a {getattr(camera, 'lens', None)!r} camera with a per-pixel focus cannot be widened "
                          "beyond its image; re-centre without a margin (keep_outside = False)")
-    return replace(camera, sensor_width_mm=camera.sensor_width_mm * (width + 2 * margin) / width)
+    return replace(camera, sensor_width_mm=camera.sensor_width_mm * scale)
 
 
 def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
@@ -212,7 +216,8 @@ def _recentre(frame: Frame, pos: np.ndarray, camera, coc_bin_px: float, motion_b
     motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
     shift = pos - (np.stack(np.mgrid[0:h0, 0:w0][::-1], axis=-1) + 0.5)
     largest = float(np.nanmax(np.abs(shift), initial=0.0))
-    margin = min(math.ceil(largest) + 1, max(h0, w0) // 2) if keep_outside and _widens(camera) else 0
+    # (+1: a bilinear footprint's neighbour; nothing moved, nothing leaves: a still pinhole)
+    margin = min(math.ceil(largest) + 1, max(h0, w0) // 2) if keep_outside and _widens(camera) and largest > 0 else 0
     h, w = h0 + 2 * margin, w0 + 2 * margin
     src, target, weight = _deposits(pos.reshape(-1, 2) + margin, w, h, footprint)
     coc = np.asarray(camera.coc_radius_px(depth, w0), np.float64).ravel()[src]

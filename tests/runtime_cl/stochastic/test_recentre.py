@@ -164,13 +164,14 @@ def test_samples_of_different_motion_keep_their_own_entries():
 
 
 @pytest.mark.parametrize("name", ["stochastic_spreadlets", "stochastic_splat"])
-def test_stochastic_passes_refuse_depth_layers_and_far_fields(name):
-    """Re-centred slots are flat frames: depth layers would meet frames without layers, and a far
-    field would be added to the sample density too; both are refused up front."""
+def test_stochastic_passes_refuse_global_depth_layers(name):
+    """Re-centred slots are flat frames: global depth layers would meet frames without layers
+    (the passes' own ``depth_layers`` bin the slots). A far field completes a medium's database,
+    whose sample counts are never splatted (tests/runtime_cl/stochastic/test_medium.py)."""
     from runtime_cl.passes import get_pass
 
     cls = get_pass(name)
-    assert not cls.layered and not cls.far_field
+    assert not cls.layered and cls.far_field
     with pytest.raises(InputError, match="renders one layer"):
         cls(ThinLens(50.0, 2.0, 1.0), layers=2)
 
@@ -217,3 +218,15 @@ def test_a_point_outside_the_frame_blurs_back_in(method):
     kept, _ = run_pass(method, frame, CAMERA, db, normalize=True)
     lost, _ = run_pass(method, frame, CAMERA, db, normalize=True, keep_outside=False)
     assert kept[edge][..., 0].mean() > 0.4 * disc.max() and lost[edge][..., 0].max() == 0.0
+
+
+def test_a_widened_camera_keeps_the_pixel_pitch():
+    """The margin's frames are splatted with the camera widened at the image's pixel pitch: a thin
+    lens's CoCs and a pinhole's pixel directions (a medium's light distances) stay the image's."""
+    from runtime_cl.camera.pinhole import Pinhole
+    from runtime_cl.stochastic.recentre import widened
+
+    pin, thin = Pinhole(fov_deg=40.0), ThinLens(50.0, 2.0, 1.0)
+    assert widened(pin, 24, 3).focal_px(30) == pytest.approx(pin.focal_px(24), rel=1e-12)
+    assert widened(thin, 24, 3).coc_radius_px(3.0, 30) == pytest.approx(thin.coc_radius_px(3.0, 24), rel=1e-12)
+    assert widened(pin, 24, 0) is pin

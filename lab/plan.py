@@ -94,10 +94,10 @@ class Plan:
         return "\n".join(lines)
 
 
-# The PSF models whose spreadlet passes the plan runs in global depth layers: the volume models add
-# each pixel's unscattered light on its own pixel, which layers do not composite (the pass refuses
-# them), and the physical lens's layered render has no test behind it yet.
-DEPTH_LAYER_MODELS = ("simple_lens", "combined", "stylized")
+# The PSF models whose spreadlet passes the plan runs in global depth layers (binned in the camera's
+# signed CoC, paraxial for a thick lens): the volume models add each pixel's unscattered light on its
+# own pixel, which layers do not composite (the pass refuses them).
+DEPTH_LAYER_MODELS = ("simple_lens", "combined", "stylized", "physical_lens")
 LAYERED_METHODS = ("spreadlets", "splat", "filter")
 
 

@@ -74,8 +74,9 @@ THIN = {"model": "thin", "focal_length_mm": 50, "f_number": 2, "focus_distance_m
 @pytest.mark.parametrize("camera, shape", [
     (THIN, {"velocity": [0.1, 0, 0]}),                              # combined
     (dict(THIN, aperture={"shape": "star"}), {}),                   # stylized
+    ({"model": "thick", "lens": "singlet", "focus_distance_m": 3}, {}),   # physical_lens
 ])
-def test_depth_layers_reach_moving_and_stylized_thin_lens_plans(camera, shape):
+def test_depth_layers_reach_moving_stylized_and_thick_lens_plans(camera, shape):
     plan = _plan(camera, **shape)
     assert plan.runtime_passes[-3:] == ("spreadlets_layers", "splat_layers", "filter_layers")
     assert plan.pass_run("spreadlets_layers") == ("spreadlets", {"layers": 2})

@@ -55,7 +55,7 @@ def _bench_model(name: str, table: dict, repeats: int, build: bool, workers: int
         traced = model.trace_checked(cell)
         t = time.perf_counter()
         sp = sparsify(traced.psf, density=model.config.density, seed=cell, rays=landed_rays(traced),
-                      basis=model.fitted_bases[0])
+                      basis=model.fitted_bases[0], denoise_tau=model.denoise_tau)
         entry["sparsify_largest"] = {"cell": cell, "rays": traced.n_rays,
                                      "seconds": time.perf_counter() - t, **sp.stats}
         return entry

@@ -65,7 +65,7 @@ def build_cell(model, cell: int) -> dict:
     t1 = time.perf_counter()
     psf = traced.psf
     fits = [sparsify(psf, density=cfg.density, seed=cfg.seed * 1_000_003 + cell, rays=landed_rays(traced),
-                     basis=basis) for basis in model.fitted_bases]
+                     basis=basis, denoise_tau=model.denoise_tau) for basis in model.fitted_bases]
     t2 = time.perf_counter()
     energy = model.energy(traced)
     # sparsified normalised (its thresholds are tuned so), then scaled: the Laplacian, the row

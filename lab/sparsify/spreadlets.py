@@ -212,7 +212,7 @@ def _sparsify_rows(f_in: np.ndarray, density: float, quantum, n_dense: int, extr
 def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
              dart_failures: int = 10_000, lloyd_iterations: int = 50, anneal_steps: int = 400,
              anneal_fraction: float = 0.01, rays: int | Sequence[int] | None = None,
-             basis: str = "laplacian") -> SparsePSF:
+             basis: str = "laplacian", denoise_tau: float | None = None) -> SparsePSF:
     """Turn a dense PSF into spreadlets (LSR18 section 5.5) or keep it dense (section 6.4).
 
     Parameters
@@ -243,6 +243,10 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
         LSR18's Laplacian spreadlets, or row differences (:mod:`lab.sparsify.rows`: a Potts fit of
         each row; ``seed`` and the dart/Lloyd/anneal settings do not apply, ``density`` scales
         its segment cost). ``stats`` has the same keys either way.
+    denoise_tau : float, optional
+        The Laplacian spreadlets' denoising level (:func:`lab.sparsify.noise.denoise`'s ``tau``;
+        default its ``TAU``): larger blurs a traced PSF less, keeping thin rims sharp for more
+        noise left in the importance.
 
     Returns
     -------
@@ -272,7 +276,7 @@ def sparsify(psf: np.ndarray, *, density: float = 1.0, seed: int = 0,
             extra["rays"] = float(1.0 / quantum.max())
         return _sparsify_rows(f_in, density, quantum, n_dense, extra)
     if quantum is not None:
-        dn = denoise(f_in, quantum)
+        dn = denoise(f_in, quantum, tau=denoise_tau)
         f, floor, reach = dn.psf, K_SIGMA * dn.lap_sd, dn.reach
         extra = dict(rays=float(1.0 / quantum.max()), denoise_sigma=dn.sigma)
     lap = psf_laplacian(f)

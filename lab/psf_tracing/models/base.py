@@ -49,6 +49,8 @@ class PSFModel(abc.ABC):
     Config: ClassVar[type]
     symmetries: ClassVar[tuple[str, ...]] = ()
     channels: ClassVar[int] = 1
+    # the sparsifier's denoising level for this model's traced PSFs (None: lab.sparsify.noise.TAU)
+    denoise_tau: ClassVar[float | None] = None
 
     def __init__(self, config):
         if not isinstance(config, self.Config):

@@ -168,15 +168,14 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
             label = (name if len(dbs) == 1 else f"{name}:{model}") + suffix
             if options.get("normalize") and attenuates(model):
                 continue   # the pass refuses it: a medium's PSFs carry its loss (no sample density)
-            if far is not None and model == "volume":
-                options = dict(options, far_field=far)
-            rendered, timing = run_pass(name, frames[0], camera, db, runs=TIMED_RUNS, **options)
+            opts = dict(options, far_field=far) if far is not None and model == "volume" else options
+            rendered, timing = run_pass(name, frames[0], camera, db, runs=TIMED_RUNS, **opts)
             entry = {"time_ms": timing.time_ms, "slots": timing.counts.get("slots"),
                      "ssim": ssim(rendered[..., :3], reference), "psnr": psnr(rendered[..., :3], reference)}
             save_render(rendered[..., :3], out_dir / f"{scene.name}-{label.replace(':', '-')}-1spp.png")
             row["methods"][f"{label}@1"] = entry
             if spp4:
-                mean = np.mean([rendered] + [run_pass(name, f, camera, db, **options)[0] for f in frames[1:]],
+                mean = np.mean([rendered] + [run_pass(name, f, camera, db, **opts)[0] for f in frames[1:]],
                                axis=0)
                 row["methods"][f"{label}@4"] = {"ssim": ssim(mean[..., :3], reference),
                                                 "psnr": psnr(mean[..., :3], reference)}

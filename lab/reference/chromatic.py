@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .backend import mitsuba
+from .backend import load_scene_dict
 from .passes import RenderJob, RenderPass, launch, pass_seeds, split_spp
 
 __all__ = ["ChromaticJob"]
@@ -58,7 +58,7 @@ class ChromaticJob(RenderJob):
 
             data = scene_dict(self.scene, self.sensor, medium=self.medium, crop=self.crop)
             data["sensor"]["wavelength_nm"] = float(wavelength_nm)
-            self._scenes[wavelength_nm] = mitsuba().load_dict(data)
+            self._scenes[wavelength_nm] = load_scene_dict(data)
         return self._scenes[wavelength_nm]
 
     def render(self, p: RenderPass) -> np.ndarray:

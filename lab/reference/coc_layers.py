@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..scene import Scene
-from .backend import mitsuba
+from .backend import load_scene_dict, mitsuba
 from .mitsuba_scene import scene_dict
 
 OVERLAP = 0.1   # LES09: layers overlap by 10 % of their CoC spacing
@@ -71,7 +71,7 @@ def coc_layers(scene: Scene, n_layers: int, delta_px: float, near_m: float, spp:
 
     w, h = scene.width, scene.height
     bounds = coc_bounds(near_m, thin().coc_scale_px(w), delta_px, n_layers, overlap)
-    full = mi.load_dict(scene_dict(scene, "pinhole"))
+    full = load_scene_dict(scene_dict(scene, "pinhole"))
     integrator, sensor = full.integrator(), full.sensors()[0]
     eye = mi.Point3f(*(float(v) for v in scene.camera.position))
     axis = mi.Vector3f(*(float(v) for v in scene.camera.forward()))

@@ -20,7 +20,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..scene import Scene
-from .backend import mitsuba
+from .backend import load_scene_dict, mitsuba
 from .mitsuba_scene import scene_dict
 from .render import pass_seeds, split_spp
 
@@ -53,11 +53,11 @@ def render_layers(scene: Scene, spp: int | None = None, pass_spp: int | None = N
     import drjit as dr
 
     base = scene_dict(scene, "pinhole")
-    full = mi.load_dict(base)
+    full = load_scene_dict(base)
     peeled = [full]
     for k in range(1, len(groups)):
         nearer = {f"shape_{i}" for g in groups[:k] for i in g}
-        peeled.append(mi.load_dict({key: v for key, v in base.items() if key not in nearer}))
+        peeled.append(load_scene_dict({key: v for key, v in base.items() if key not in nearer}))
     integrator, sensor = full.integrator(), full.sensors()[0]
     eye = mi.Point3f(*(float(v) for v in scene.camera.position))
     axis = mi.Vector3f(*(float(v) for v in scene.camera.forward()))

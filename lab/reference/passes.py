@@ -37,7 +37,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..scene import Scene
-from .backend import mitsuba
+from .backend import load_scene_dict, mitsuba
 
 __all__ = ["Accumulator", "RenderPass", "RenderJob", "average", "launch", "pass_seeds", "split_spp",
            "MAX_SAMPLES_PER_PASS",
@@ -271,7 +271,7 @@ class RenderJob:
         if self._loaded is None:
             from .mitsuba_scene import scene_dict
 
-            self._loaded = mitsuba().load_dict(scene_dict(self.scene, self.sensor, medium=self.medium, crop=self.crop))
+            self._loaded = load_scene_dict(scene_dict(self.scene, self.sensor, medium=self.medium, crop=self.crop))
         return self._loaded
 
     def render(self, p: RenderPass) -> np.ndarray:

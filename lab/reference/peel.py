@@ -32,7 +32,7 @@ from tqdm import tqdm
 
 from ..errors import UserError
 from ..scene import Scene
-from .backend import mitsuba
+from .backend import load_scene_dict, mitsuba
 from .mitsuba_scene import scene_dict
 from .render import pass_seeds, split_spp
 
@@ -133,7 +133,7 @@ def peel_layers(scene: Scene, spp: int | None = None, max_layers: int | None = N
     mi = mitsuba()
     import drjit as dr
 
-    full = mi.load_dict(scene_dict(scene, "pinhole"))
+    full = load_scene_dict(scene_dict(scene, "pinhole"))
     integrator, sensor = full.integrator(), full.sensors()[0]
     w, h = scene.width, scene.height
     scale = float(lens.coc_scale_px(w))   # a thick lens: its paraxial CoC (entrance pupil, chief-ray scale)

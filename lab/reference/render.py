@@ -11,7 +11,7 @@ import numpy as np
 from tqdm import tqdm
 
 from ..scene import Scene
-from .backend import mitsuba
+from .backend import load_scene_dict, mitsuba
 from .mitsuba_scene import scene_dict
 from .passes import Accumulator, RenderJob, RenderPass, pass_seeds, split_spp  # noqa: F401 (re-exported)
 
@@ -55,7 +55,7 @@ def render_passes(mi_scene, spp: int, seed: int, stream: str, pass_spp: int | No
 
 def load(scene: Scene, sensor: str = "scene", medium: bool = False):
     """``mi.load_dict`` of :func:`~lab.reference.mitsuba_scene.scene_dict`."""
-    return mitsuba().load_dict(scene_dict(scene, sensor, medium=medium))
+    return load_scene_dict(scene_dict(scene, sensor, medium=medium))
 
 
 def reference_job(scene: Scene, spp: int | None = None, pass_spp: int | None = None) -> RenderJob:

@@ -135,3 +135,26 @@ def test_demo_view_is_closed_and_its_coc_range_is_as_designed():
     assert np.mean((r >= 70) & (r <= 90)) > 0.5  # mostly big background bokeh
     assert 0.05 < np.mean(r < -20) < 0.3  # some foreground blur
     assert np.mean(np.abs(r) < 3) > 0.05  # a sharp subject (ball, cube, the table under them)
+
+
+def test_a_scene_loads_the_same_every_time():
+    """rain's 97 emitters (lamps, drops, streaks: emitting boxes that share a BSDF) come out of
+    every load in one order, each shape its own: Mitsuba's default optimisation merged the boxes in
+    an order that changed from load to load, and with it the light a random number picked (the
+    same seeds rendered 0.4 % of rain's pixels differently at 1 spp)."""
+    from lab.reference.backend import load_scene_dict
+
+    scene = load_scene(SCENES / "rain.toml")
+    data = scene_dict(small(scene, 32, 32), "pinhole")
+
+    def order():
+        loaded = load_scene_dict(data)
+        return [e.get_shape().id() if e.get_shape() is not None else type(e).__name__ for e in loaded.emitters()], \
+            len(loaded.shapes())
+
+    first = order()
+    assert first[1] == len(scene.shapes) and len(first[0]) > 90
+    assert all(order() == first for _ in range(3))
+    image = render_labelled(small(scene, 32, 32), spp=1, progress=False)
+    again = render_labelled(small(scene, 32, 32), spp=1, progress=False)
+    np.testing.assert_array_equal(image.rgb, again.rgb)

@@ -126,13 +126,19 @@ def run_runtime(plan, image, databases: dict, runs: int = TIMED_RUNS, min_ms: fl
             key = label if len(candidates) == 1 else f"{label}:{db.model}"
             frame = frame_of(image, db=db, layered_input=options.get("layered_input", False),
                              stochastic="lens.U" in cls.channels)
-            extra = {"far_field": far} if far is not None and cls.far_field and db.model == "volume" else {}
-            rendered, timing = run_pass(name, frame, camera, db, runs=runs, min_ms=min_ms, **options, **extra)
+            rendered, timing = run_pass(name, frame, camera, db, runs=runs, min_ms=min_ms, **options,
+                                        **far_field_option(cls, db, far))
             entry = dict(timing.to_json(), **{"pass": name})
             if cls.draws_aperture and aperture is not None:
                 entry["aperture"] = aperture_info(aperture)
             out[key] = (rendered, entry)
     return out
+
+
+def far_field_option(cls, db, far) -> dict:
+    """``{"far_field": far}`` where the pass class ``cls`` adds a far field and the ``volume_far``
+    database ``far`` (or None) completes ``db``, a ``volume`` database; else {}."""
+    return {"far_field": far} if far is not None and cls.far_field and db is not None and db.model == "volume" else {}
 
 
 def runtime_camera(image, source: str = "input camera header"):

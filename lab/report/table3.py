@@ -137,7 +137,7 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
     from ..pipeline import build_databases, inputs_and_reference, stochastic_input
     from ..plan import make_plan
     from ..psf_settings import check_tables
-    from ..runtime_passes import runtime_camera
+    from ..runtime_passes import far_field_option, runtime_camera
     from .images import save_render
 
     plan = make_plan(scene)
@@ -168,7 +168,7 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
             label = (name if len(dbs) == 1 else f"{name}:{model}") + suffix
             if options.get("normalize") and attenuates(model):
                 continue   # the pass refuses it: a medium's PSFs carry its loss (no sample density)
-            opts = dict(options, far_field=far) if far is not None and model == "volume" else options
+            opts = dict(options, **far_field_option(cls, db, far))
             rendered, timing = run_pass(name, frames[0], camera, db, runs=TIMED_RUNS, **opts)
             entry = {"time_ms": timing.time_ms, "slots": timing.counts.get("slots"),
                      "ssim": ssim(rendered[..., :3], reference), "psnr": psnr(rendered[..., :3], reference)}

@@ -171,11 +171,12 @@ def _reference(scene: Scene, plan: Plan, image, path: Path, executor: Executor, 
 
 
 def stochastic_input(scene: Scene, index: int = 0, shading_spp: int = 1, image: LabelledImage | None = None,
-                     progress: bool = True) -> LabelledImage:
+                     progress: bool = True, medium: bool = False) -> LabelledImage:
     """The ``index``-th independent 1-spp stochastic image of ``scene`` (:mod:`lab.reference.
     stochastic`: lens sample and shutter time per pixel; ``shading_spp`` paths per camera ray),
     cached beside its input by a hash of that module. A moving scene's sub-frames follow the
-    longest motion of its labelled input: ``image``, or the cached input (rendered if missing)."""
+    longest motion of its labelled input: ``image``, or the cached input (rendered if missing).
+    ``medium``: the same samples traced through the scene's ``[medium]`` (a denoiser's input)."""
     from .motion import scene_moves
     from .reference.stochastic import render_stochastic
 
@@ -185,11 +186,12 @@ def stochastic_input(scene: Scene, index: int = 0, shading_spp: int = 1, image: 
         flow = [image.extra[c] for c in ("motion.X", "motion.Y") if c in image.extra]
         longest = float(np.hypot(*flow).max()) if flow else 0.0
     folder = render_folder(scene)
-    path = folder / f"stochastic-{index}-shade{shading_spp}-{code_digest(('lab.reference.stochastic',))[:12]}.exr"
+    kind = "-medium" if medium else ""
+    path = folder / f"stochastic-{index}-shade{shading_spp}{kind}-{code_digest(('lab.reference.stochastic',))[:12]}.exr"
     if not path.exists():
         if progress:
-            print(f"  stochastic input {index} of {scene.name}", flush=True)
-        write_labelled(path, render_stochastic(scene, index, longest, shading_spp))
+            print(f"  stochastic input {index}{kind} of {scene.name}", flush=True)
+        write_labelled(path, render_stochastic(scene, index, longest, shading_spp, medium))
     return read_labelled(path)
 
 

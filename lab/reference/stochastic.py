@@ -130,7 +130,8 @@ def _boxes(camera, shape):
     return PupilBoxes.for_camera(camera, shape)
 
 
-def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shading_spp: int = 1) -> dict:
+def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shading_spp: int = 1,
+                  medium: bool = False) -> dict:
     """Trace one path per pixel (see the module docstring); the per-pixel arrays, row-major:
     ``rgb`` (N, 3), ``depth`` (N,), ``points`` (N, 3) world hit points, ``shape_idx`` (N,) scene
     shape hit (-1: none), ``lens`` (N, 2) Mitsuba's aperture samples (a thick lens's box samples),
@@ -147,6 +148,11 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
         The longest motion vector on screen (the labelled input's); sets the sub-frames.
     shading_spp : int
         Paths traced from each pixel's camera ray (see the module docstring).
+    medium : bool
+        Trace through the scene's ``[medium]`` (``volpath``, the reference's scene): the image a
+        path tracer shows with these same samples, which a denoiser baseline starts from. Only
+        its ``rgb`` is meant (a box's walls are shapes too); never the runtime's input (its volume
+        PSFs add the medium).
     """
     if isinstance(shading_spp, bool) or not isinstance(shading_spp, int) or not 1 <= shading_spp <= 4096:
         raise UserError(f"shading_spp = {shading_spp!r}: give an integer in [1, 4096] (paths per camera ray)")
@@ -161,7 +167,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     k = subframes_for(max_motion_px) if moves else 1
     slot = rng.integers(0, k, h * w)
     mi_seeds = rng.integers(0, 2**31, k)
-    mi_scene = load(scene, "scene")   # no medium: the runtime adds it, as to the labelled input
+    mi_scene = load(scene, "scene", medium=medium)   # by default none: the runtime adds it
     thick = scene.camera.runtime_camera() if scene.camera.model == "thick" else None
     animator = Animator(scene, mi_scene) if moves else None
     sensor, integrator = mi_scene.sensors()[0], mi_scene.integrator()
@@ -219,7 +225,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
 
 
 def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
-                      shading_spp: int = 1) -> LabelledImage:
+                      shading_spp: int = 1, medium: bool = False) -> LabelledImage:
     """One 1-spp stochastic image of ``scene`` with its lens samples and times.
 
     Parameters
@@ -232,9 +238,11 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
         The longest motion vector on screen (the labelled input's); sets the sub-frames.
     shading_spp : int
         Paths traced from each pixel's camera ray (see the module docstring).
+    medium : bool
+        See :func:`trace_samples`.
     """
     w, h = scene.width, scene.height
-    tr = trace_samples(scene, index, max_motion_px, shading_spp)
+    tr = trace_samples(scene, index, max_motion_px, shading_spp, medium)
     lens, depth, t_frac = tr["lens"], tr["depth"], tr["t_frac"]
     u, v = lens_channels(scene, lens)
     extra = {"lens.U": u.reshape(h, w), "lens.V": v.reshape(h, w), "time": t_frac.astype(np.float32).reshape(h, w)}

@@ -10,6 +10,10 @@ medium's database (fog) as the plain sum alone, which its still pinhole's sample
 refuses to normalise by counts its PSFs attenuate). Also 4 spp: four independent 1-spp images,
 reconstructed each and averaged (reconstruction is linear).
 
+The ``input`` column and BM3D's input are what a path tracer shows with the same samples: the
+stochastic input itself, but for a scene with a ``[medium]`` (which the methods' input leaves out,
+for the volume PSFs to add) those samples traced through the medium.
+
 BM3D runs on the tonemapped input (what a viewer sees; in linear radiance, clipped, it scored
 lower on the demo) with an *oracle* noise level: the standard deviation of the tonemapped
 input's difference from the reference, times the factor of :data:`BM3D_FACTORS` whose result
@@ -155,9 +159,15 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
            "reference_spp": scene.render.reference_spp, "shading_spp": shading_spp,
            "reference_s": info.get("reference_s"), "noise_floor": info.get("noise_floor"),
            "stochastic_input_s": input_s, "methods": {}}
+    # what a path tracer shows with these samples: the input, or with a medium (which the input leaves
+    # to the volume PSFs) the same samples traced through it; BM3D denoises this
+    shown = inputs if scene.medium is None else [
+        stochastic_input(scene, i, shading_spp, image, progress, medium=True) for i in range(len(inputs))]
+    if scene.medium is not None:
+        row["shown"] = "the stochastic samples traced through the medium (the methods' input omits it)"
     save_render(reference, out_dir / f"{scene.name}-reference.png")
-    save_render(inputs[0].rgb, out_dir / f"{scene.name}-input-1spp.png")
-    noisy = {1: inputs[0].rgb, 4: np.mean([x.rgb for x in inputs], axis=0)} if spp4 else {1: inputs[0].rgb}
+    save_render(shown[0].rgb, out_dir / f"{scene.name}-input-1spp.png")
+    noisy = {1: shown[0].rgb, 4: np.mean([x.rgb for x in shown], axis=0)} if spp4 else {1: shown[0].rgb}
     for spp, img in noisy.items():
         row["methods"][f"input@{spp}"] = {"ssim": ssim(img, reference), "psnr": psnr(img, reference)}
     for name, options, suffix in METHODS:
@@ -250,7 +260,8 @@ def main(argv=None) -> int:
                 "about": "LSR18 Table 3 reproduced: reconstruction from a stochastic image (one camera ray per "
                          "pixel with its own lens sample and time; 'paths per camera ray' shading paths from it: 1 "
                          "is a 1-spp path trace, more a stochastic rasterizer's converged shading), and from 4 of "
-                         "them; every method and BM3D (oracle noise level) on that same input; SSIM against the "
+                         "them; every method and BM3D (oracle noise level) on those samples (BM3D's traced through "
+                         "a medium, which the methods' volume PSFs add); SSIM against the "
                          "scene's path-traced reference; +norm: divided by the splatted sample density; +fill: "
                          "bilinear sample footprint, push-pull fill, 4 depth layers.",
                 "tonemap": TONEMAP, "scenes": rows, "machine": machine_info()}

@@ -95,9 +95,11 @@ class PinholeCamera(Camera):
 
 
 def _volpath_step(scene) -> Step:
+    from ..reference.equiangular import applies
+
     r = scene.render
-    return Step("mitsuba_volpath", f"Mitsuba volpath through the medium, {r.reference_spp} spp, "
-                                   f"max depth {r.max_depth}")
+    how = "equi-angular volumetric path tracing" if applies(scene) else "Mitsuba volpath"
+    return Step("mitsuba_volpath", f"{how} through the medium, {r.reference_spp} spp, max depth {r.max_depth}")
 
 
 def _filling_plan(scene) -> dict:

@@ -26,6 +26,17 @@ def _mitsuba(scene, image):
     return reference_job(scene)
 
 
+def _volpath(scene, image):
+    """Through a scene-filling medium, the equi-angular estimator (:mod:`lab.reference.equiangular`:
+    volpath's image with far less noise); through a box of it, Mitsuba's ``volpath``."""
+    from .equiangular import EquiAngularJob, applies
+
+    if applies(scene):
+        return EquiAngularJob(scene, scene.render.reference_spp, "reference", "scene", medium=True,
+                              desc=f"reference {scene.name}")
+    return _mitsuba(scene, image)
+
+
 def _motion(scene, image):
     """Sub-frames over the shutter through the scene camera's own sensor, one per pixel of the
     input's longest motion vector (:mod:`lab.reference.motion`)."""
@@ -59,7 +70,7 @@ def _none(scene, image) -> None:
 
 # Step name -> (scene, labelled input) -> RenderJob to run, the (H, W, 3) radiance itself, or None.
 REFERENCES = {"none": _none, "mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
-              "mitsuba_volpath": _mitsuba, "mitsuba_motion": _motion, "mitsuba_thick_lens": _thick_lens,
+              "mitsuba_volpath": _volpath, "mitsuba_motion": _motion, "mitsuba_thick_lens": _thick_lens,
               "pinhole": _the_input}
 
 

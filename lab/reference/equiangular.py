@@ -18,18 +18,22 @@ along a segment that ends on a surface at distance T is split into
 * the direct in-scattered light: for every light, one equi-angular distance and one point sampled
   on the light (Mitsuba's ``Emitter.sample_direction``), weighted by sigma_s, the HG phase
   function and the transmittances on both sides;
-* everything else (indirect in-scattering and the surface's reflected light) by the usual
-  free-flight choice: scatter at t with probability 1 - exp(-sigma_t T) and continue with weight
-  albedo in an HG-sampled direction, whose path must then not count a light it hits directly
-  (that light is the direct term's); or reach the surface, where next-event estimation and BSDF
-  sampling are combined by multiple importance sampling as in Mitsuba's ``path``.
+* the light the surface reflects straight from a light: next-event estimation (one light sample,
+  Mitsuba's ``Scene.sample_emitter_direction``) times the transmittance of the segment and of the
+  shadow ray;
+* everything else (indirect in-scattering and indirect reflection) by the usual free-flight
+  choice: scatter at t with probability 1 - exp(-sigma_t T) and continue with weight albedo in an
+  HG-sampled direction, or reach the surface and continue by BSDF sampling. The next segment then
+  does not count a light it hits directly (the light samples above took that light), except
+  after a mirror (a delta BSDF, which no light sample can evaluate).
 
 A path has at most ``max_depth`` segments, as in ``volpath``. Unbiasedness is checked against
 ``volpath`` itself (``tests/lab/reference/test_equiangular.py``). Lights at infinity send nothing
-through a scene-filling medium (nor in ``volpath``). Cost: one light sample and shadow ray per
-light per segment, so a scene with many lights pays for each. Samples run as a wavefront of
-numpy arrays around Mitsuba's ray queries; random numbers come from numpy's generator seeded by
-the pass, so a pass is the same on any thread count.
+through a scene-filling medium (nor in ``volpath``). Cost: :data:`STRATA` light samples and
+shadow rays per light per segment, so a scene with many lights pays for each. Samples run as a
+Dr.Jit wavefront (one kernel per path segment) over Mitsuba's ray queries, with one PCG32 stream
+per sample and numpy-seeded pixel jitter, all from the pass's seed; the pixels' sums are numpy
+``bincount``s, so a pass is the same on any thread count.
 """
 from __future__ import annotations
 
@@ -195,8 +199,9 @@ class EquiAngularJob(RenderJob):
             pix = pixels[lo:lo + LANES]
             jitter = np.random.default_rng([p.seed, lo]).random((pix.size, 2))
             xy = np.stack([x0 + pix % w, y0 + pix // w], axis=1) + jitter
+            # one 64-bit PCG32 state per (pass, chunk): seed + lo could repeat across passes
             radiance = trace(self.mitsuba_scene(), self.scene, xy / [self.scene.width, self.scene.height],
-                             p.seed + lo)
+                             (p.seed << 32) + lo // LANES)
             for c in range(3):
                 total[:, c] += np.bincount(pix, radiance[:, c], minlength=h * w)
         return (total / p.spp).reshape(h, w, 3).astype(np.float32)

@@ -6,7 +6,8 @@
 - Header: ``{"lens": "pinhole", "fov_x_deg": ..., "shutter": [open, close]}``.
 - Plan: no defocus, so no PSF database; the pinhole render is its own reference and the runtime
   pass is ``identity``. With a ``[medium]`` (:class:`lab.medium.Medium`): the ``volume`` PSF model
-  through the spreadlet passes against a Mitsuba ``volpath`` reference through the medium, with
+  through the spreadlet passes against a path-traced reference through the medium
+  (:mod:`lab.reference.equiangular`), with
   the ``volume_far`` model's halo beyond the volume PSFs' window when the frame is wider (a medium
   in a box: the ``volume_box`` model, :data:`MEDIUM_PLANS`); a
   moving scene the ``combined`` model (CoC 0) against sub-frames (:func:`~lab.cameras.base.motion_plan`).

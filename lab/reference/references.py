@@ -27,8 +27,9 @@ def _mitsuba(scene, image):
 
 
 def _volpath(scene, image):
-    """Through a scene-filling medium, the equi-angular estimator (:mod:`lab.reference.equiangular`:
-    volpath's image with far less noise); through a box of it, Mitsuba's ``volpath``."""
+    """Through the medium (filling the scene or a box), the equi-angular estimator
+    (:mod:`lab.reference.equiangular`: volpath's image with far less noise); through a medium that
+    neither scatters nor absorbs (``sigma_t`` 0), Mitsuba's ``volpath``."""
     from .equiangular import EquiAngularJob, applies
 
     if applies(scene):

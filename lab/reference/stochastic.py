@@ -149,7 +149,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     shading_spp : int
         Paths traced from each pixel's camera ray (see the module docstring).
     medium : bool
-        Trace through the scene's ``[medium]`` (``volpath``, the reference's scene): the image a
+        Trace through the scene's ``[medium]`` (Mitsuba's ``volpath``): the image a
         path tracer shows with these same samples, which a denoiser baseline starts from. Only
         its ``rgb`` is meant (a box's walls are shapes too); never the runtime's input (its volume
         PSFs add the medium).

@@ -95,12 +95,12 @@ class PinholeCamera(Camera):
         return sensor
 
 
-def _volpath_step(scene) -> Step:
+def _medium_reference_step(scene) -> Step:
     from ..reference.equiangular import applies
 
     r = scene.render
     how = "equi-angular volumetric path tracing" if applies(scene) else "Mitsuba volpath"
-    return Step("mitsuba_volpath", f"{how} through the medium, {r.reference_spp} spp, max depth {r.max_depth}")
+    return Step("volume_path_trace", f"{how} through the medium, {r.reference_spp} spp, max depth {r.max_depth}")
 
 
 def _filling_plan(scene) -> dict:
@@ -114,7 +114,7 @@ def _filling_plan(scene) -> dict:
         "dof": "none",
         "aperture": "none (pinhole)",
         "psf_models": ("volume", "volume_far") if far else ("volume",),
-        "references": (_volpath_step(scene),),
+        "references": (_medium_reference_step(scene),),
         "runtime_passes": ("spreadlets", "splat", "filter"),
         "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),) + skipped,
     }
@@ -129,7 +129,7 @@ def _box_plan(scene) -> dict:
         "dof": "none",
         "aperture": "none (pinhole)",
         "psf_models": ("volume_box",),
-        "references": (_volpath_step(scene),),
+        "references": (_medium_reference_step(scene),),
         "runtime_passes": ("spreadlets", "splat", "filter"),
         "skipped": (Step("defocus", "a pinhole camera: the volume PSFs are the medium's alone"),
                     Step("volume_far", "a box medium has no far field: its halo is cut at the volume_box "

@@ -26,7 +26,7 @@ def _mitsuba(scene, image):
     return reference_job(scene)
 
 
-def _volpath(scene, image):
+def _through_medium(scene, image):
     """Through the medium (filling the scene or a box), the equi-angular estimator
     (:mod:`lab.reference.equiangular`: volpath's image with far less noise); through a medium that
     neither scatters nor absorbs (``sigma_t`` 0), Mitsuba's ``volpath``."""
@@ -71,7 +71,7 @@ def _none(scene, image) -> None:
 
 # Step name -> (scene, labelled input) -> RenderJob to run, the (H, W, 3) radiance itself, or None.
 REFERENCES = {"none": _none, "mitsuba_thinlens": _mitsuba, "mitsuba_polygon_lens": _mitsuba, "mitsuba_aperture_lens": _mitsuba,
-              "mitsuba_volpath": _volpath, "mitsuba_motion": _motion, "mitsuba_thick_lens": _thick_lens,
+              "volume_path_trace": _through_medium, "mitsuba_motion": _motion, "mitsuba_thick_lens": _thick_lens,
               "pinhole": _the_input}
 
 

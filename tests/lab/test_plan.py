@@ -105,7 +105,7 @@ def test_a_medium_with_a_pinhole_plans_the_volume_model_and_volpath():
                      "medium": {"sigma_t": 0.5, "albedo": [1, 1, 0.9], "g": 0.7},
                      "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
     plan = make_plan(s)
-    assert plan.psf_models == ("volume",) and [r.name for r in plan.references] == ["mitsuba_volpath"]
+    assert plan.psf_models == ("volume",) and [r.name for r in plan.references] == ["volume_path_trace"]
     assert plan.effects["medium"].startswith("homogeneous (sigma_t 0.5 /m")
     assert "participating medium" not in {x.name for x in plan.skipped}
     assert "volume_far" in {x.name for x in plan.skipped}                  # the window covers 16 x 8 px
@@ -126,7 +126,7 @@ def test_a_medium_in_a_box_plans_the_volume_box_model_and_its_reference_cube():
                      "medium": {"sigma_t": 0.5, "box": {"center": [0, 0, 3], "size": [1, 1, 1]}},
                      "emitters": [{"type": "constant", "radiance": [1, 1, 1]}]}, "f.toml")
     plan = make_plan(s)
-    assert plan.psf_models == ("volume_box",) and [r.name for r in plan.references] == ["mitsuba_volpath"]
+    assert plan.psf_models == ("volume_box",) and [r.name for r in plan.references] == ["volume_path_trace"]
     assert "in a box centred at [0.0, 0.0, 3.0] m" in plan.effects["medium"]
     assert "volume_far" in {x.name for x in plan.skipped}
     d = scene_dict(s, medium=True)

@@ -236,6 +236,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", dest="sets", action="append", metavar="KEY=VALUE",
                    help="an option for every runtime pass of the plan that takes it (repeatable; VALUE is a "
                         "TOML value), e.g. --set spreadlet_rotation=bank; the report records the options")
+    p.add_argument("--layers", type=int, metavar="N",
+                   help="render the spreadlet passes in N global depth layers as well (LSR18 6.2), beside one: "
+                        "replaces the scenes' [render] depth_layers (1-16)")
     _add_where(p, "the reference's render passes and the databases' PSFs")
 
     sub.add_parser("demo", description=DESCRIPTIONS["demo"], help=f"`report` on the embedded scene {DEMO_SCENE.relative_to(ROOT)}")
@@ -258,7 +261,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "Table 1's axes) on a 16-layer one (neither part of all); splat_layers: "
                         "spreadlets and Splat with 1, 2, 4 depth layers, with and without the guard band, "
                         "times, cost of layers, SSIM/PSNR and the reference's noise floor (not part of all); "
-                        "integrate: the Poisson integrators (exact, fft32, pyramid) at 1024^2 and 4096^2, errors "
+                        "integrate: the Poisson integrators (exact, fft32, pyramid) at 1024^2 and 4096^2 and on "
+                        "--scene's own spreadlet canvas (default the demo; --no-build skips it), errors "
                         "against the exact solve and time ratios (not part of all); "
                         "all: precompute and runtime")
     p.add_argument("--quick", action="store_true",
@@ -269,7 +273,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="precompute: only these registered models (default: all)")
     p.add_argument("--no-build", action="store_true",
                    help="precompute: measure rays/s only, skip the (minutes-long) database builds; "
-                        "runtime: render no reference (times and ratios only, no SSIM)")
+                        "runtime: render no reference (times and ratios only, no SSIM); integrate: skip the "
+                        "scene's own canvas (its Laplacian database)")
     p.add_argument("--passes", metavar="A,B", type=lambda s: s.split(","),
                    help="runtime: only these passes of the scene's plan (default all; the first is "
                         "the ratios' base)")

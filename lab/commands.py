@@ -266,11 +266,12 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _report(scene_path, out_dir, baseline, executor=None, noise: bool = True, sweep=None, options=None) -> tuple:
+def _report(scene_path, out_dir, baseline, executor=None, noise: bool = True, sweep=None, options=None,
+            layers: int | None = None) -> tuple:
     from .pipeline import run_report
 
     report = run_report(scene_path, out_dir, baseline, executor=executor, noise=noise, sweep=sweep,
-                        options=options)
+                        options=options, depth_layers=layers)
     out = Path(out_dir) if out_dir else REPORTS / report["scene"]["name"]
     for name, m in report["methods"].items():
         corrected = m.get("noise_corrected_psnr")
@@ -281,7 +282,11 @@ def _report(scene_path, out_dir, baseline, executor=None, noise: bool = True, sw
         print(f"  {name:<11} {m['time_ms']:9.1f} ms   SSIM {m['ssim']:.4f}   PSNR {m['psnr']:.2f} dB{said}")
     floor = report["reference"].get("noise_floor")
     if floor:
-        print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB")
+        from .report.metrics import CONVERGED_FLOOR
+
+        low = (f" (below {CONVERGED_FLOOR}: not converged enough to validate; raise [render] reference_spp)"
+               if floor["ssim"] < CONVERGED_FLOOR else "")
+        print(f"  noise floor: two reference seeds agree at SSIM {floor['ssim']:.4f}, PSNR {floor['psnr']:.2f} dB{low}")
     elif report["reference"].get("noise_floor_skipped"):
         print(f"  noise floor: not measured ({report['reference']['noise_floor_skipped']})")
     if "sweep" in report:
@@ -317,7 +322,13 @@ def cmd_report(args) -> int:
     elif getattr(args, "knobs", None) is not None:
         raise UserError(f"--knobs {','.join(args.knobs)}: --knobs chooses what --sweep turns; add --sweep")
     options = parse_sets(args.sets, example="spreadlet_rotation=bank") if getattr(args, "sets", None) else {}
-    loaded = [load_scene_and_plan(s) for s in scenes]               # every scene valid before hours of work
+    from .scene import MAX_DEPTH_LAYERS
+
+    layers = getattr(args, "layers", None)
+    if layers is not None and not 1 <= layers <= MAX_DEPTH_LAYERS:
+        raise UserError(f"--layers {layers}: the number of depth layers must be between 1 and {MAX_DEPTH_LAYERS} "
+                        "(1 splats everything into one layer, without occlusion), e.g. --layers 2")
+    loaded = [load_scene_and_plan(s, layers) for s in scenes]       # every scene valid before hours of work
     for _, plan in loaded:
         with_pass_options(plan, options)                            # every option taken, before hours of work
     names = [scene.name for scene, _ in loaded]
@@ -334,12 +345,12 @@ def cmd_report(args) -> int:
     with _executor(args) as executor:
         if len(scenes) == 1:
             return _report(scenes[0], args.out_dir, args.baseline, executor, _noise(noise, loaded[0][1]), sweep,
-                           options)[0]
+                           options, layers)[0]
         root = Path(args.out_dir) if args.out_dir else None
         codes, reports, dirs = [], [], []
         for path, name, (_, plan) in zip(scenes, names, loaded):
             code, report, out = _report(path, root / name if root else None, None, executor, _noise(noise, plan),
-                                        sweep, options)
+                                        sweep, options, layers)
             codes.append(code), reports.append(report), dirs.append(out)
     page = write_summary(reports, dirs, root or REPORTS / "table2")
     print(f"LSR18 Table 2 over {len(reports)} scenes: {page.resolve()}")

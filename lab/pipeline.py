@@ -211,11 +211,17 @@ def build_databases(scene: Scene, plan: Plan, image: LabelledImage, force: bool 
     return results
 
 
-def load_scene_and_plan(path) -> tuple:
+def load_scene_and_plan(path, depth_layers: int | None = None) -> tuple:
+    """The scene of ``path`` and its plan; ``depth_layers`` (``report --layers N``) replaces the
+    scene's ``[render] depth_layers``."""
+    from dataclasses import replace
+
     from .focus import resolve_focus
     from .psf_settings import check_tables
 
     scene = resolve_focus(load_scene(path))   # focus_point(s): the depths they see give the focus
+    if depth_layers is not None:
+        scene = replace(scene, render=replace(scene.render, depth_layers=depth_layers))
     plan = make_plan(scene)
     check_tables(scene, plan.psf_models)   # a bad [psf.*] setting fails before any render
     return scene, plan
@@ -226,7 +232,8 @@ def default_out_dir(scene: Scene) -> Path:
 
 
 def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
-               executor: Executor | None = None, noise: bool = True, sweep=None, options=None) -> dict:
+               executor: Executor | None = None, noise: bool = True, sweep=None, options=None,
+               depth_layers: int | None = None) -> dict:
     """The whole job; writes ``report.json`` and ``index.html`` and returns the report dict.
 
     ``executor`` (default: this process) runs the reference's passes and the databases' cells;
@@ -234,11 +241,12 @@ def run_report(scene_path, out_dir=None, baseline=None, progress: bool = True,
     method's noise-corrected MSE (see :func:`inputs_and_reference`); ``sweep``
     (a list of :class:`lab.report.knobs.Knob`) also measures accuracy against time knob by knob
     (:mod:`lab.report.sweep`); ``options`` (``--set``) are given to every runtime pass that takes
-    them (:func:`lab.runtime_passes.with_pass_options`).
+    them (:func:`lab.runtime_passes.with_pass_options`); ``depth_layers`` replaces the scene's
+    ``[render] depth_layers``.
     """
     from .runtime_passes import with_pass_options
 
-    scene, plan = load_scene_and_plan(scene_path)
+    scene, plan = load_scene_and_plan(scene_path, depth_layers)
     plan = with_pass_options(plan, options or {})
     return report_scene(scene, plan, out_dir, baseline, progress, executor, noise, sweep)
 

@@ -33,6 +33,8 @@ RENDER_BOUNDS = {
 }
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 
+MAX_DEPTH_LAYERS = 16   # [render] depth_layers, `report --layers`: LSR18 uses a handful
+
 
 def check_name(name: str) -> str:
     """A scene name, which becomes a folder under reports/ and .cache/: a letter or digit, then
@@ -129,7 +131,7 @@ class RenderSettings:
         if not isinstance(self.guard_band, bool):
             raise UserError(f"guard_band = {self.guard_band!r} must be true or false")
         # LES10 needed <= 10 layers; LSR18 uses a handful of depth layers
-        for key, bound in (("peel_layers", 64), ("lens_rays", 4096), ("depth_layers", 16),
+        for key, bound in (("peel_layers", 64), ("lens_rays", 4096), ("depth_layers", MAX_DEPTH_LAYERS),
                            ("peel_spp", RENDER_BOUNDS["input_spp"][0])):
             if getattr(self, key) is not None and not 1 <= getattr(self, key) <= bound:
                 raise UserError(f"{key} = {getattr(self, key)} must be between 1 and {bound} (or remove it)")

@@ -9,7 +9,7 @@ One module per benchmark:
 - :mod:`.spreadlet_throughput` - kernel rates on synthetic discs, and the cost of per-pixel
   rotation (``bench rotation``);
 - :mod:`.integrate` - the Poisson integrators: errors against the exact solve and times at
-  1024^2 and 4096^2 (``bench integrate``);
+  1024^2 and 4096^2, and on the scene's own spreadlet canvas (``bench integrate``);
 - :mod:`.layered` - lens rays through peeled layers: quality and time per ray and layer count
   (``bench layered``, default scene ``scenes/foreground.toml``);
 - :mod:`.thick_layered` - lens rays of a thick lens through peeled layers, point rays and cones,
@@ -55,7 +55,8 @@ def _polygon(args) -> list:
 def _integrate(args) -> list:
     from .integrate import bench_integrate
 
-    return [bench_integrate(args["repeats"], sizes=(1024,) if args["quick"] else (1024, 4096))]
+    return [bench_integrate(args["repeats"], sizes=(1024,) if args["quick"] else (1024, 4096),
+                            scene=args["scene"] if args["build"] else None)]
 
 
 def _layered(args) -> list:

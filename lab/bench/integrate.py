@@ -9,6 +9,10 @@ Canvases (RGB float32, zero on their border ring, as the spreadlet runtime's are
   largest CoC 84 px as the demo's; exact Laplacians of 1 px soft-rimmed discs,
   :func:`runtime_cl.psf.synthetic.disc_database`, discs under 4 px on the dense fast track), on
   its padded canvas (1024 + 2 pad, FFT-friendly);
+- ``<scene>`` (``--scene``, default the demo): the Laplacian canvas the ``spreadlets`` pass
+  integrates for the scene's own labelled input, its ``simple_lens`` database fitted in LSR18's
+  Laplacian basis (the scene's database may store row differences, which need no integration):
+  :func:`scene_canvas`;
 - ``random_1024`` and ``random_4096``: sparse random PSF sums on the padded canvas of a 1024^2 and
   a 4096^2 image (:func:`runtime_cl.psf.synthetic.psf_sum_image`: soft-rimmed discs of
   log-uniform radii 1 ... n/12, rims 1-8 px, exponential intensities per channel) and their
@@ -32,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["bench_integrate", "random_canvas", "defocus_canvas", "relative_error", "measure_case"]
+__all__ = ["bench_integrate", "random_canvas", "defocus_canvas", "scene_canvas", "relative_error", "measure_case"]
 
 
 def _spread(values) -> dict:
@@ -81,6 +85,39 @@ def defocus_canvas(n: int = 1024, r_max: float = 84.0, seed: int = 0, device=Non
     return out.canvas[0].copy(), out.pad   # the splatter reuses its host canvas
 
 
+def scene_canvas(scene_path, device=None):
+    """The Laplacian canvas the ``spreadlets`` pass integrates for ``scene_path``'s labelled input
+    (a round thin lens: its ``simple_lens`` database, built or reused with ``basis = "laplacian"``),
+    recorded as the pass hands it to its integrator. Returns ``(laplacian (Hc, Wc, 3), scene name)``."""
+    from dataclasses import replace
+
+    from lab.errors import UserError
+    from lab.pipeline import build_databases, input_only, load_scene_and_plan
+    from lab.runtime_passes import frame_of, runtime_camera
+    from runtime_cl.passes import get_pass
+    from runtime_cl.psf.database import SpreadletDatabase
+
+    scene, plan = load_scene_and_plan(scene_path)
+    if tuple(plan.psf_models) != ("simple_lens",):
+        raise UserError(f"--scene {scene_path}: its plan traces {list(plan.psf_models)}; the integrate bench "
+                        "records a round thin lens's simple_lens canvas (e.g. scenes/demo.toml)")
+    tables = dict(scene.psf, simple_lens=dict(scene.psf.get("simple_lens", {}), basis="laplacian"))
+    scene = replace(scene, psf=tables)
+    image = input_only(scene)
+    result = build_databases(scene, plan, image)["simple_lens"]
+    db = SpreadletDatabase.load(result.path, expect_model="simple_lens")
+    spreadlets = get_pass("spreadlets")(runtime_camera(image), db, device=device, integrator="exact")
+    recorded, integrate = [], spreadlets.renderer.integrator
+
+    def record(plane):
+        recorded.append(np.array(plane, np.float32, copy=True))
+        return integrate(plane)
+    spreadlets.renderer.integrator = record
+    spreadlets(spreadlets.prepare(frame_of(image, db=db)))
+    (lap,) = recorded
+    return lap, scene.name
+
+
 def measure_case(lap: np.ndarray, integrators: dict, repeats: int, truth: np.ndarray | None = None) -> dict:
     """Errors and interleaved times of every integrator on one canvas (see the module)."""
     exact = integrators["exact"](lap)[0].astype(np.float64)
@@ -107,8 +144,9 @@ def measure_case(lap: np.ndarray, integrators: dict, repeats: int, truth: np.nda
     return row
 
 
-def bench_integrate(repeats: int = 5, sizes=(1024, 4096)) -> Path:
-    """Run the benchmark (module docstring) and write ``reports/bench/integrate-*.json``."""
+def bench_integrate(repeats: int = 5, sizes=(1024, 4096), scene=None) -> Path:
+    """Run the benchmark (module docstring) and write ``reports/bench/integrate-*.json``;
+    ``scene`` (a path, optional): also its own spreadlet canvas (:func:`scene_canvas`)."""
     from runtime_cl.device.opencl import get_device
     from runtime_cl.integrate import get_integrator, integrator_names
 
@@ -120,6 +158,10 @@ def bench_integrate(repeats: int = 5, sizes=(1024, 4096)) -> Path:
     if 1024 in sizes:
         lap, pad = defocus_canvas(1024, device=device)
         cases["defocus_1024"] = dict(measure_case(lap, integrators, repeats), pad=pad)
+    if scene is not None:
+        lap, name = scene_canvas(scene, device)
+        cases[f"scene_{name}"] = dict(measure_case(lap, integrators, repeats), scene=str(scene))
+        del lap
     for n in sizes:
         lap, image = random_canvas(fft_size(n), seed=n)
         cases[f"random_{n}"] = measure_case(lap, integrators, repeats, truth=image)

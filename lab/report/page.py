@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from .page_parts import PAGE_STYLE, SORT_SCRIPT, esc, figure, fmt, key_values, sortable
 from .knobs import REFERENCE
+from .metrics import CONVERGED_FLOOR
 from .papers import published_for, published_range
 
 __all__ = ["render_page"]
@@ -48,6 +49,11 @@ def _summary(report: dict) -> str:
     if floor:
         text += (f" Two references with independent seeds agree at SSIM {floor['ssim']:.3f} and PSNR "
                  f"{floor['psnr']:.2f} dB: the reference's own noise, which no method can beat.")
+        if floor["ssim"] < CONVERGED_FLOOR:
+            text += (f" <b>Not converged enough to validate</b>: below {CONVERGED_FLOOR} its noise is as large "
+                     "as the methods' errors, so their SSIM differences are not to be trusted; render more "
+                     "spp (<code>[render] reference_spp</code>) or an adaptive reference "
+                     "(<code>[render] reference_adaptive</code>).")
     elif ref.get("noise_floor_skipped"):
         text += f" The reference's noise floor was not measured: {esc(ref['noise_floor_skipped'])}."
     adaptive = ref.get("adaptive")

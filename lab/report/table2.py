@@ -17,6 +17,7 @@ from runtime_cl.atomic_file import atomic_path
 
 from .html import STYLE, _fmt
 from .machine import machine_info
+from .metrics import CONVERGED_FLOOR
 
 __all__ = ["LSR18_TABLE2", "summary", "write_summary"]
 
@@ -73,6 +74,13 @@ def _cell(entry) -> tuple[str, str]:
     return f"{entry['time_ms']:.1f}", f"{entry['ssim']:.3f}"
 
 
+def _floor(noise) -> str:
+    if not noise:
+        return "not measured"
+    low = noise["ssim"] < CONVERGED_FLOOR
+    return f"{noise['ssim']:.3f}" + (f" (below {CONVERGED_FLOOR}: not converged enough to validate)" if low else "")
+
+
 def render_html(data: dict, links: dict) -> str:
     """The Table 2 page; ``links`` maps a scene name to its report page (relative URL)."""
     head = ("<tr><th rowspan=2>scene</th><th rowspan=2>model</th><th rowspan=2>source</th>"
@@ -90,7 +98,7 @@ def render_html(data: dict, links: dict) -> str:
         ours = ([link, html.escape(", ".join(row["models"])), "splatlab"] + cells
                 + [f"{speed:.1f}&times;" if speed else "&ndash;",
                    f"{_fmt(row['reference_s'])} s, {row['reference_spp']} spp",
-                   f"{noise['ssim']:.3f}" if noise else "not measured"])
+                   _floor(noise)])
         body.append("<tr>" + "".join(f"<td>{c}</td>" for c in ours) + "</tr>")
         paper = row.get("paper")
         if paper:

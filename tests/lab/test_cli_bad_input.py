@@ -363,3 +363,55 @@ def test_bench_pass_options_are_checked_before_any_work(work, capfd):
                   "not `bench precompute`")
     fails_cleanly(["report", SCENES / "tiny.toml", "--set", "bogus=1", "--out-dir", work / "out"], capfd, work,
                   "--set bogus=1", "spreadlet_rotation")
+
+
+FOG = (SCENES / "tiny_fog.toml").read_text()
+
+
+@pytest.mark.parametrize("old, new, needles", [
+    ("sigma_t = 0.25", "sigma_t = -0.25", ["sigma_t = -0.25"]),
+    ("g = 0.6", "g = 1.0", ["g = 1.0", "(-1, 1)"]),
+    ("g = 0.6", "g = -1.5", ["g = -1.5", "(-1, 1)"]),
+    ("albedo = [0.9, 0.9, 0.85]", "albedo = [0.9, 1.2, 0.85]", ["albedo", "1.2"]),
+])
+def test_medium_values(work, capfd, old, new, needles):
+    """A bad [medium] is refused by `splatlab plan` in one line, before anything is traced."""
+    assert old in FOG
+    (work / "s.toml").write_text(FOG.replace(old, new, 1))
+    fails_cleanly(["plan", work / "s.toml"], capfd, work, "s.toml", "[medium]", *needles)
+
+
+@pytest.mark.parametrize("content, needles", [
+    (b"", ["cannot be read (an empty file)", "give the path of a PNG"]),
+    ("black", ["has no open pixel"]),
+    ("red", ["has colour", "save it as a grayscale PNG"]),
+])
+def test_aperture_image_files(work, capfd, content, needles):
+    """An aperture PNG that is empty, all dark or coloured: `splatlab plan` exits 2 naming the file."""
+    from PIL import Image
+
+    png = work / "ap.png"
+    if isinstance(content, bytes):
+        png.write_bytes(content)
+    else:
+        rgb = np.zeros((8, 8, 3), np.uint8)
+        if content == "red":
+            rgb[2:6, 2:6] = (255, 0, 0)
+        Image.fromarray(rgb, "RGB").save(png)
+    heart = (SCENES / "tiny_heart.toml").read_text()
+    old = '\naperture = { shape = "heart" }'   # the [camera] key, not the header comment's words
+    assert old in heart
+    (work / "s.toml").write_text(heart.replace(old, f'\naperture = {{ shape = "image", path = "{png}" }}', 1))
+    fails_cleanly(["plan", work / "s.toml"], capfd, work, "ap.png", *needles)
+
+
+@pytest.mark.parametrize("channels, needles", [
+    ({"motion.X": np.ones((12, 12), np.float32)}, ["channel motion.X without its partner", "motion.Y"]),
+    ({"motion.X": np.full((12, 12), np.nan, np.float32), "motion.Y": np.zeros((12, 12), np.float32)},
+     ["144 pixel(s) of motion.X are NaN or infinite", "finite motion"]),
+])
+def test_render_bad_motion_vectors(work, capfd, channels, needles):
+    """Motion vectors of the wrong shape (one component) or not finite: exit 2 naming the channel."""
+    path = exr_with(work, channels=channels)
+    fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capfd, work, "bad.exr",
+                  *needles)

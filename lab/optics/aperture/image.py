@@ -77,7 +77,10 @@ def load_transmittance(path: str) -> tuple[np.ndarray, str]:
                 peak = 65535.0 if img.mode.startswith("I") else 255.0
                 lum = np.asarray(img.convert("F"), dtype=np.float64) / peak
     except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError) as exc:
-        raise UserError(f"aperture_image = {path!r} cannot be read ({exc}); give the path of a PNG "
+        # Pillow names its in-memory stream, not the file, when it knows no format for the bytes
+        why = ("an empty file" if not data else "no image format Pillow reads") \
+            if isinstance(exc, UnidentifiedImageError) else str(exc)
+        raise UserError(f"aperture_image = {path!r} cannot be read ({why}); give the path of a PNG "
                         "whose bright pixels are the open aperture") from None
     w = np.clip(lum * alpha, 0.0, None)
     if not np.any(w > 0):

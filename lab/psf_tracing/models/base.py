@@ -137,9 +137,11 @@ class PSFModel(abc.ABC):
     def fingerprint(self) -> dict:
         """What a labelled image's ``splatlab.camera`` header must say for this model's database to
         match it: header key -> the value traced (checked by :func:`runtime_cl.psf.fingerprint.
-        check_header` before a render). Default: the aperture, for models with aperture keys."""
+        check_header` before a render). Default: no medium (a lens model's PSFs carry no fog, so
+        an input that asks for one needs a volume database) and the aperture, for models with
+        aperture keys."""
         aperture = getattr(self.config, "header_aperture", None)
-        return {"aperture": aperture()} if aperture is not None else {}
+        return {"medium": None} | ({"aperture": aperture()} if aperture is not None else {})
 
     def energy(self, traced: TraceResult) -> np.ndarray | None:
         """Per channel, the light of a traced PSF that reaches the image, relative to the point as

@@ -71,7 +71,7 @@ class PhysicalLens(PSFModel):
         lens: its surfaces, paraxial focal length at the focus wavelength, focus distance and
         rule, and sensor width."""
         c = self.config
-        return {"surfaces": [list(row) for row in c.surfaces], "focus": c.focus,
+        return super().fingerprint() | {"surfaces": [list(row) for row in c.surfaces], "focus": c.focus,
                 "focal_length_mm": self.camera.lens.effective_focal_length_mm(c.focus_wavelength_nm),
                 "focus_distance_m": c.focus_distance_m, "sensor_width_mm": c.sensor_width_mm}
 

@@ -149,6 +149,18 @@ def test_a_database_for_another_aperture(tiny_input, tiny_db, tmp_path, capsys):
     assert not out.exists()
 
 
+def test_a_database_without_the_inputs_medium(tiny_input, tiny_db, tmp_path, capsys):
+    """An input that asks for fog is refused by a lens database, which would drop the fog silently."""
+    image = read_labelled(tiny_input)
+    fog = tmp_path / "fog.exr"   # a pinhole's input, as a fog scene writes it
+    write_labelled(fog, dataclasses.replace(image, camera={"lens": "pinhole", "fov_x_deg": 20.0, "medium": {
+        "sigma_t": 0.25, "albedo": [0.9, 0.9, 0.9], "g": 0.6}}))
+    out = tmp_path / "out.exr"
+    _expect_user_error(["render", fog, "--db", tiny_db, "--out", out], capsys, str(fog), "medium = {", "'sigma_t': 0.25",
+                       "traced for medium = None")
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("command", ["reference", "report"])
 @pytest.mark.parametrize("option, needles", [
     (["--workers", "0"], ["--workers 0", "integer >= 1"]),
@@ -192,3 +204,25 @@ def test_bench_runtime_without_reference(tiny_report, e2e_cache, tmp_path, monke
     assert data["methods"]["splat"]["ssim"] is None and data["ratios"]["splat_time_over_spreadlets"] > 0
     code, _, err = run(["bench", "runtime", "--scene", TINY, "--no-build", "--passes", "spreadlets,nope"], capsys)
     assert code == 2 and "['nope'] not in the plan" in err and "'filter'" in err
+
+
+def test_report_layers_renders_the_spreadlet_passes_in_depth_layers(tiny_report, e2e_cache, tmp_path, capsys,
+                                                                      monkeypatch):
+    """`splatlab report SCENE --layers 2`: the spreadlet passes again in 2 depth layers, beside one."""
+    import json
+
+    monkeypatch.setenv("SPLATLAB_CACHE", str(e2e_cache))
+    code, out, _ = run(["report", TINY, "--layers", "2", "--no-noise-floor", "--out-dir", tmp_path], capsys)
+    assert code == 0, out
+    methods = json.loads((tmp_path / "report.json").read_text())["methods"]
+    assert {"spreadlets_layers", "splat_layers", "filter_layers"} <= set(methods)
+    one, _ = tiny_report
+    assert "spreadlets_layers" not in one["methods"]
+    assert abs(methods["spreadlets_layers"]["ssim"] - one["methods"]["spreadlets"]["ssim"]) < 0.05
+    assert "spreadlets_layers" in out
+
+
+@pytest.mark.parametrize("layers", ["0", "17"])
+def test_report_layers_out_of_range(layers, tmp_path, capsys):
+    _expect_user_error(["report", TINY, "--layers", layers, "--out-dir", tmp_path], capsys, f"--layers {layers}",
+                       "between 1 and 16")

@@ -1,4 +1,13 @@
-"""The rectified built-in shapes the runtime ships are what the lab's rectification gives today."""
+"""The rectified built-in shapes the runtime ships are what the lab's rectification gives today.
+
+The file was written on one CPU; another's libm and SIMD paths round the rectification's
+trigonometry differently in the last bit (measured: 1 ulp, 1.1e-16, on an AMD Zen 3 against the
+shipping machine), so vertices are compared to 1e-12 of the unit circumradius (10^4 ulps; 1e-9 px
+on a 1000-px bokeh, where a change to a shape or to the rectification moves them by pixels), and
+edge counts and direction vectors (integers) exactly.
+"""
+import json
+
 import numpy as np
 import pytest
 
@@ -14,17 +23,26 @@ def fresh():
     return shipped_text()
 
 
+VERTEX_ATOL = 1e-12
+
+
 def test_the_shipped_file_is_what_rectification_gives_now(fresh):
-    assert SHIPPED.read_text() == fresh, (
-        f"{SHIPPED} is stale: run `python -m lab.polygon.ship` and commit the file")
+    shipped, now = json.loads(SHIPPED.read_text()), json.loads(fresh)
+    stale = f"{SHIPPED} is stale: run `python -m lab.polygon.ship` and commit the file"
+    assert {k: v for k, v in shipped.items() if k != "shapes"} == {k: v for k, v in now.items() if k != "shapes"}, stale
+    assert list(shipped["shapes"]) == list(now["shapes"]), stale
+    for name, entry in now["shapes"].items():
+        old = shipped["shapes"][name]
+        assert old["edges"] == entry["edges"] and old["directions"] == entry["directions"], (name, stale)
+        np.testing.assert_allclose(old["vertices"], entry["vertices"], rtol=0, atol=VERTEX_ATOL, err_msg=stale)
 
 
 @pytest.mark.parametrize("name", SHAPES)
-def test_unit_polygon_is_the_rectified_shape_bit_for_bit(name):
+def test_unit_polygon_is_the_rectified_shape(name):
     want_v, want_d = rectify(shape(name), direction_set(SHIPPED_DIRECTIONS_M), default_edges(name)).unit()
     v, d = unit_polygon(name)
     assert v.dtype == want_v.dtype and d.dtype == want_d.dtype
-    np.testing.assert_array_equal(v, want_v)
+    np.testing.assert_allclose(v, want_v, rtol=0, atol=VERTEX_ATOL)
     np.testing.assert_array_equal(d, want_d)
 
 

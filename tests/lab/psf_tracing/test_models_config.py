@@ -111,7 +111,15 @@ def test_throughput_meets_lsr18_pace():
 ])
 def test_a_database_fingerprint_states_its_aperture_as_the_header_does(table, aperture):
     model = load_model("simple_lens", dict(table, max_coc_px=8.0))
-    assert model.fingerprint() == {"aperture": aperture}
+    assert model.fingerprint() == {"medium": None, "aperture": aperture}
+
+
+@pytest.mark.parametrize("name, table", [
+    ("simple_lens", {"max_coc_px": 8.0}), ("combined", {"max_coc_px": 8.0, "max_motion_px": 8.0}),
+    ("stylized", {"max_coc_px": 8.0}), ("physical_lens", {})])
+def test_a_lens_database_is_traced_without_a_medium(name, table):
+    """A header that asks for fog (``medium``) is refused by a lens database, not rendered fog-free."""
+    assert load_model(name, table).fingerprint()["medium"] is None
 
 
 def test_a_physical_lens_fingerprint_is_its_paraxial_thin_lens():

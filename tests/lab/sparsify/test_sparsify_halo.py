@@ -57,20 +57,50 @@ def test_volume_psf_keeps_its_energy_within_the_ray_noise(volume_psfs, distance)
     np.testing.assert_array_less(np.abs(rec.sum(axis=(0, 1)) - 1.0), bound)
 
 
+def ring_errors(psf, rays, rec):
+    """Per octave ring (rows) and channel: the reconstruction's energy less the PSF's, and 5 sd of
+    the ring's Monte Carlo error, sqrt(p (1 - p) / N) for its share p of N landed rays."""
+    c = psf.shape[0] // 2
+    r = np.hypot(*(np.mgrid[:psf.shape[0], :psf.shape[1]] - c))
+    errors, noise = [], []
+    for lo, hi in zip(RINGS[:-1], RINGS[1:]):
+        ring = (r >= lo) & (r < hi)
+        dense = psf[ring].sum(axis=0)
+        errors.append(rec[ring].sum(axis=0) - dense)
+        noise.append(5 * np.sqrt(dense * (1 - dense) / rays))
+    return np.array(errors), np.array(noise)
+
+
 @pytest.mark.parametrize("distance", [1.0, 5.0])
 def test_volume_halo_profile_matches_the_dense_psf(volume_psfs, distance):
     """Every octave ring from 1.5 px out keeps its energy to within 5 sd of its Monte Carlo error
-    plus 1 % of the PSF's energy: the seven rings then stay within LSR18's operating point (L1 of
-    2 - 3 % on discs, :mod:`lab.sparsify.spreadlets`). Before, the rings beyond 64 px lost 9 % of
-    the energy at 1 m and 29 % at 5 m."""
-    psf, rays, _, rec = volume_psfs[distance]
-    c = psf.shape[0] // 2
-    r = np.hypot(*(np.mgrid[:psf.shape[0], :psf.shape[1]] - c))
-    for lo, hi in zip(RINGS[:-1], RINGS[1:]):
-        ring = (r >= lo) & (r < hi)
-        dense, kept = psf[ring].sum(axis=0), rec[ring].sum(axis=0)
-        bound = 5 * np.sqrt(dense * (1 - dense) / rays) + 0.01
-        assert (np.abs(kept - dense) < bound).all(), (lo, hi, kept, dense, bound)
+    plus 3 % of the PSF's energy. Which Voronoi cells the noise gives a halo moves its energy by
+    rings from one traced realisation to the next: over 16 seeds the worst ring was off by 0.5 %
+    at 1 m and 2.6 % at 5 m (the 64 - 128 px ring; sd 0.9 %), while the rings' mean error over the
+    seeds stays within 0.53 % (:func:`test_the_halo_profile_is_unbiased_over_realisations`). Before
+    the sparsifier's halo work, the rings beyond 64 px lost 9 % of the energy at 1 m and 29 % at 5 m."""
+    errors, noise = ring_errors(*(volume_psfs[distance][i] for i in (0, 1, 3)))
+    assert (np.abs(errors) < noise + 0.03).all(), (errors, noise)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("distance", [1.0, 5.0])
+def test_the_halo_profile_is_unbiased_over_realisations(distance):
+    """The rings' error averaged over 16 traced realisations (seeds) is within 1 % of the PSF's
+    energy plus 5 sd of the mean's Monte Carlo error: the sparsifier moves no halo energy
+    systematically (measured: at most 0.53 % at 5 m, 64 - 128 px, against a spread of the 16-seed
+    mean of 0.23 %), so an image that sums many cells' halos keeps their profile."""
+    errors, noise = [], None
+    for seed in range(16):
+        model = Volume(VolumeConfig(seed=seed))
+        cell = min(range(model.grid.size), key=lambda i: abs(sum(model.boxes[i].lo + model.boxes[i].hi) / 2 - distance))
+        traced = model.trace_checked(cell)
+        rays = np.array(landed_rays(traced), np.float64)
+        sp = sparsify(traced.psf, seed=cell, rays=landed_rays(traced))
+        e, noise = ring_errors(traced.psf.astype(np.float64), rays, sp.reconstruct(traced.psf.shape[0]).astype(np.float64))
+        errors.append(e)
+    mean = np.mean(errors, axis=0)
+    assert (np.abs(mean) < noise / 4 + 0.01).all(), (mean, noise)
 
 
 def test_traced_point_stays_a_point():

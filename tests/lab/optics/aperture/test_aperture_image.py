@@ -131,8 +131,13 @@ def test_unreadable_files_are_user_errors(tmp_path):
         make_aperture("image", path=str(tmp_path / "missing.png"))
     junk = tmp_path / "junk.png"
     junk.write_bytes(b"not a png at all")
-    with pytest.raises(UserError, match=r"junk\.png.*cannot be read"):
+    with pytest.raises(UserError, match=r"junk\.png.*cannot be read \(no image format Pillow reads\)") as e:
         make_aperture("image", path=str(junk))
+    assert "BytesIO" not in str(e.value)
+    empty = tmp_path / "empty.png"
+    empty.write_bytes(b"")
+    with pytest.raises(UserError, match=r"empty\.png.*cannot be read \(an empty file\)"):
+        make_aperture("image", path=str(empty))
     black = write_png(tmp_path / "black.png", np.zeros((8, 8), np.uint8))
     with pytest.raises(UserError, match="no open pixel"):
         make_aperture("image", path=black)

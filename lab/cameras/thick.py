@@ -45,7 +45,7 @@ WAVELENGTHS_NM = (650.0, 510.0, 475.0)   # R, G, B (LES10)
 FOCUS_WAVELENGTH_NM = LINE_D_NM          # focusing and the pinhole scale
 FOCUS = "best"                           # the sensor at the smallest spot (lab.optics.lens_camera)
 # Keys of the other lens models, named in the error a thick lens gives for them.
-THIN_KEYS = ("focal_length_mm", "f_number", "aperture_radius_mm", "aperture", "fov_deg")
+THIN_KEYS = ("focal_length_mm", "f_number", "aperture_radius_mm", "fov_deg")
 
 
 @functools.lru_cache(maxsize=32)
@@ -105,10 +105,15 @@ class ThickCamera(Camera):
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThickCamera":
         check_focus_keys(table, where)
+        if "aperture" in table:   # the stop's shape is no thin-lens key that the surfaces replace
+            raise UserError(f"{where}: aperture = {table['aperture']!r}: a thick lens's stop is round (its "
+                            "semi-aperture is the radius-0 row of the surfaces); no PSF model or reference "
+                            "traces a shaped stop through a thick lens yet: remove the aperture, or set "
+                            "model = 'thin' for an iris or a shaped aperture")
         other = [k for k in THIN_KEYS if k in table]
         if other:
             raise UserError(f"{where}: {other}: a thick lens's focal length, f-number, field of view and aperture "
-                            "follow from its surfaces (the stop's semi-aperture); remove them, or set model = 'thin'")
+                            "radius follow from its surfaces (the stop's semi-aperture); remove them, or set model = 'thin'")
         return super().parse(table, where)
 
     def check(self) -> None:

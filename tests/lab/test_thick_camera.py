@@ -89,6 +89,7 @@ def test_a_header_that_disagrees_with_its_surfaces_is_refused(key, value, said):
      ["surfaces[3] = [1, 2]", "[radius_mm, thickness_mm, glass, semi_aperture_mm]"]),
     ({"focus_distance_m": 0.03}, ["lens = 'singlet', focus_distance_m = 0.03", "cannot focus"]),
     ({"f_number": 2.0}, ["['f_number']", "follow from its surfaces", "model = 'thin'"]),
+    ({"aperture": {"blades": 7}}, ["aperture = {'blades': 7}", "stop is round", "model = 'thin'"]),
     ({"focus_distance_m": None}, ["needs focus_distance_m"]),
 ])
 def test_bad_prescriptions_name_the_key_and_the_fix(change, needles):

@@ -310,6 +310,7 @@ def cmd_report(args) -> int:
     from .precompute.target import parse_sets
     from .report.table2 import write_summary
     from .runtime_passes import with_pass_options
+    from .scene import MAX_DEPTH_LAYERS
 
     sweep, noise = None, args.noise_floor
     if getattr(args, "sweep", False):
@@ -322,8 +323,6 @@ def cmd_report(args) -> int:
     elif getattr(args, "knobs", None) is not None:
         raise UserError(f"--knobs {','.join(args.knobs)}: --knobs chooses what --sweep turns; add --sweep")
     options = parse_sets(args.sets, example="spreadlet_rotation=bank") if getattr(args, "sets", None) else {}
-    from .scene import MAX_DEPTH_LAYERS
-
     layers = getattr(args, "layers", None)
     if layers is not None and not 1 <= layers <= MAX_DEPTH_LAYERS:
         raise UserError(f"--layers {layers}: the number of depth layers must be between 1 and {MAX_DEPTH_LAYERS} "

@@ -161,7 +161,6 @@ def bench_integrate(repeats: int = 5, sizes=(1024, 4096), scene=None) -> Path:
     if scene is not None:
         lap, name = scene_canvas(scene, device)
         cases[f"scene_{name}"] = dict(measure_case(lap, integrators, repeats), scene=str(scene))
-        del lap
     for n in sizes:
         lap, image = random_canvas(fft_size(n), seed=n)
         cases[f"random_{n}"] = measure_case(lap, integrators, repeats, truth=image)

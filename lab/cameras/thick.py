@@ -113,7 +113,8 @@ class ThickCamera(Camera):
         other = [k for k in THIN_KEYS if k in table]
         if other:
             raise UserError(f"{where}: {other}: a thick lens's focal length, f-number, field of view and aperture "
-                            "radius follow from its surfaces (the stop's semi-aperture); remove them, or set model = 'thin'")
+                            "radius follow from its surfaces (the stop's semi-aperture); remove them, or set "
+                            "model = 'thin'")
         return super().parse(table, where)
 
     def check(self) -> None:

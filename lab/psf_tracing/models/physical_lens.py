@@ -69,11 +69,12 @@ class PhysicalLens(PSFModel):
     def fingerprint(self) -> dict:
         """What a ``"thick"`` header (:mod:`runtime_cl.camera.thick_lens`) must say of the traced
         lens: its surfaces, paraxial focal length at the focus wavelength, focus distance and
-        rule, and sensor width."""
+        rule, and sensor width; and no medium (:meth:`PSFModel.fingerprint`)."""
         c = self.config
-        return super().fingerprint() | {"surfaces": [list(row) for row in c.surfaces], "focus": c.focus,
-                "focal_length_mm": self.camera.lens.effective_focal_length_mm(c.focus_wavelength_nm),
-                "focus_distance_m": c.focus_distance_m, "sensor_width_mm": c.sensor_width_mm}
+        return super().fingerprint() | {
+            "surfaces": [list(row) for row in c.surfaces], "focus": c.focus,
+            "focal_length_mm": self.camera.lens.effective_focal_length_mm(c.focus_wavelength_nm),
+            "focus_distance_m": c.focus_distance_m, "sensor_width_mm": c.sensor_width_mm}
 
     # --- per ray --------------------------------------------------------------------------------
     def _trace(self, coords, rng, status: bool = False):

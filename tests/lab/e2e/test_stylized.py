@@ -23,7 +23,7 @@ def test_the_heart_runs_the_stylized_model_against_its_own_reference(heart_repor
     db = report["database"]["stylized"]
     assert db["model"] == "stylized" and db["params"]["config"]["aperture"] == "heart"
     assert db["params"]["config"]["channel_scale"] == [1.0, 1.0, 1.0]           # a thin lens: no fringes
-    assert db["params"]["fingerprint"] == {"aperture": {"shape": "heart"}}
+    assert db["params"]["fingerprint"] == {"medium": None, "aperture": {"shape": "heart"}}
     methods = report["methods"]
     assert set(methods) == {"spreadlets", "splat", "filter"}
     assert abs(methods["spreadlets"]["ssim"] - methods["splat"]["ssim"]) < 0.02

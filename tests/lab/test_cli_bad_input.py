@@ -415,3 +415,23 @@ def test_render_bad_motion_vectors(work, capfd, channels, needles):
     path = exr_with(work, channels=channels)
     fails_cleanly(["render", path, "--db", work / "db.spdb", "--out", work / "o.exr"], capfd, work, "bad.exr",
                   *needles)
+
+
+RAIN = (SCENES / "tiny_rain.toml").read_text()
+RAIN_LENS = '[100.0, 14.0, "N-BK7", 25.0],\n            [-100.0, 0.0, "air", 25.0]]'
+
+
+@pytest.mark.parametrize("lens, needles", [
+    # the caps cut through each other: 1 mm of glass between spheres whose sag at 25 mm is ~3 mm each
+    ('[100.0, 1.0, "N-BK7", 25.0],\n            [-100.0, 0.0, "air", 25.0]]', ["intersect", "raise thickness_mm"]),
+    # a diverging element: no real image, so no ray reaches a sensor
+    ('[-100.0, 14.0, "N-BK7", 25.0],\n            [100.0, 0.0, "air", 25.0]]', ["no ray reaches a sensor",
+                                                                             "converging"]),
+    ('[100.0, 14.0, "BK7", 25.0],\n            [-100.0, 0.0, "air", 25.0]]', ["glass = 'BK7' is not in the catalog"]),
+])
+def test_thick_lens_prescriptions(work, capfd, lens, needles):
+    """A prescription whose surfaces intersect, that forms no image, or names an unknown glass:
+    `splatlab plan` exits 2 naming the scene, the surfaces and the fix."""
+    assert RAIN_LENS in RAIN
+    (work / "s.toml").write_text(RAIN.replace(RAIN_LENS, lens, 1))
+    fails_cleanly(["plan", work / "s.toml"], capfd, work, "s.toml", "[camera]", "surfaces", *needles)

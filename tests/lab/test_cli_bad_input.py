@@ -181,9 +181,10 @@ def test_database_bad_header_types(work, capfd, header, needles):
     fails_cleanly(["db", "info", resaved(work, **header)], capfd, work, "spreadlet database", *needles)
 
 
-def scene(work, old, new, name="s.toml"):
-    assert old in TINY
-    (work / name).write_text(TINY.replace(old, new, 1))
+def scene(work, old, new, name="s.toml", base=TINY):
+    """``base`` (a scene file's text, default tiny.toml) with ``old`` replaced by ``new``, written to ``work``."""
+    assert old in base
+    (work / name).write_text(base.replace(old, new, 1))
     return work / name
 
 
@@ -376,9 +377,7 @@ FOG = (SCENES / "tiny_fog.toml").read_text()
 ])
 def test_medium_values(work, capfd, old, new, needles):
     """A bad [medium] is refused by `splatlab plan` in one line, before anything is traced."""
-    assert old in FOG
-    (work / "s.toml").write_text(FOG.replace(old, new, 1))
-    fails_cleanly(["plan", work / "s.toml"], capfd, work, "s.toml", "[medium]", *needles)
+    fails_cleanly(["plan", scene(work, old, new, base=FOG)], capfd, work, "s.toml", "[medium]", *needles)
 
 
 @pytest.mark.parametrize("content, needles", [
@@ -398,11 +397,10 @@ def test_aperture_image_files(work, capfd, content, needles):
         if content == "red":
             rgb[2:6, 2:6] = (255, 0, 0)
         Image.fromarray(rgb, "RGB").save(png)
-    heart = (SCENES / "tiny_heart.toml").read_text()
     old = '\naperture = { shape = "heart" }'   # the [camera] key, not the header comment's words
-    assert old in heart
-    (work / "s.toml").write_text(heart.replace(old, f'\naperture = {{ shape = "image", path = "{png}" }}', 1))
-    fails_cleanly(["plan", work / "s.toml"], capfd, work, "ap.png", *needles)
+    path = scene(work, old, f'\naperture = {{ shape = "image", path = "{png}" }}',
+                 base=(SCENES / "tiny_heart.toml").read_text())
+    fails_cleanly(["plan", path], capfd, work, "ap.png", *needles)
 
 
 @pytest.mark.parametrize("channels, needles", [
@@ -432,6 +430,5 @@ RAIN_LENS = '[100.0, 14.0, "N-BK7", 25.0],\n            [-100.0, 0.0, "air", 25.
 def test_thick_lens_prescriptions(work, capfd, lens, needles):
     """A prescription whose surfaces intersect, that forms no image, or names an unknown glass:
     `splatlab plan` exits 2 naming the scene, the surfaces and the fix."""
-    assert RAIN_LENS in RAIN
-    (work / "s.toml").write_text(RAIN.replace(RAIN_LENS, lens, 1))
-    fails_cleanly(["plan", work / "s.toml"], capfd, work, "s.toml", "[camera]", "surfaces", *needles)
+    fails_cleanly(["plan", scene(work, RAIN_LENS, lens, base=RAIN)], capfd, work, "s.toml", "[camera]", "surfaces",
+                  *needles)

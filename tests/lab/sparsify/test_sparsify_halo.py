@@ -29,19 +29,22 @@ def histogram(psf, rays, seed=0):
     return (counts.reshape(psf.shape[:2]) / rays).astype(np.float32)[..., None]
 
 
+def sparsified_volume_psf(distance: float, seed: int = 0) -> tuple:
+    """The Volume PSF of the cell nearest ``distance`` (default settings but ``seed``), its landed
+    rays per channel, its sparsification and that sparsification reconstructed (float64)."""
+    model = Volume(VolumeConfig(seed=seed))
+    cell = min(range(model.grid.size), key=lambda i: abs(sum(model.boxes[i].lo + model.boxes[i].hi) / 2 - distance))
+    traced = model.trace_checked(cell)
+    rays = np.array(landed_rays(traced), np.float64)
+    sp = sparsify(traced.psf, seed=cell, rays=landed_rays(traced))
+    return traced.psf.astype(np.float64), rays, sp, sp.reconstruct(traced.psf.shape[0]).astype(np.float64)
+
+
 @pytest.fixture(scope="module")
 def volume_psfs():
     """Volume PSFs at the model's default settings (255^2 px, 2^23 photons) at 1 m and at 5 m,
     where 86 % of the light in the image is halo; with their sparsifications."""
-    model = Volume(VolumeConfig())
-    out = {}
-    for d in (1.0, 5.0):
-        cell = min(range(model.grid.size), key=lambda i: abs(sum(model.boxes[i].lo + model.boxes[i].hi) / 2 - d))
-        traced = model.trace_checked(cell)
-        rays = np.array(landed_rays(traced), np.float64)
-        sp = sparsify(traced.psf, seed=cell, rays=landed_rays(traced))
-        out[d] = (traced.psf.astype(np.float64), rays, sp, sp.reconstruct(traced.psf.shape[0]).astype(np.float64))
-    return out
+    return {d: sparsified_volume_psf(d) for d in (1.0, 5.0)}
 
 
 @pytest.mark.parametrize("distance", [1.0, 5.0])
@@ -92,12 +95,8 @@ def test_the_halo_profile_is_unbiased_over_realisations(distance):
     mean of 0.23 %), so an image that sums many cells' halos keeps their profile."""
     errors, noise = [], None
     for seed in range(16):
-        model = Volume(VolumeConfig(seed=seed))
-        cell = min(range(model.grid.size), key=lambda i: abs(sum(model.boxes[i].lo + model.boxes[i].hi) / 2 - distance))
-        traced = model.trace_checked(cell)
-        rays = np.array(landed_rays(traced), np.float64)
-        sp = sparsify(traced.psf, seed=cell, rays=landed_rays(traced))
-        e, noise = ring_errors(traced.psf.astype(np.float64), rays, sp.reconstruct(traced.psf.shape[0]).astype(np.float64))
+        psf, rays, _, rec = sparsified_volume_psf(distance, seed)
+        e, noise = ring_errors(psf, rays, rec)
         errors.append(e)
     mean = np.mean(errors, axis=0)
     assert (np.abs(mean) < noise / 4 + 0.01).all(), (mean, noise)

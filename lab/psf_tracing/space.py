@@ -34,7 +34,7 @@ class Box:
 
 def _level_cells(grid: NestedGrid, level: int):
     """Lattice coordinates k of the cells of ``level`` in index order (see runtime_cl.psf.grid)."""
-    ns, kmax = grid.ns, grid.cells_per_row(level)
+    ns, kmax = grid.nested_ns, grid.cells_per_row(level)
     for j in range(ns):
         ranges = [range(1, kmax) if d < j else range(kmax) for d in range(ns) if d != j]
         for digits in itertools.product(*ranges):
@@ -44,16 +44,23 @@ def _level_cells(grid: NestedGrid, level: int):
 
 
 def boxes(grid: NestedGrid) -> list[Box]:
-    """g^-1: every cell of ``grid`` as a :class:`Box`, in index order."""
-    out = []
+    """g^-1: every cell of ``grid`` as a :class:`Box`, in index order. With ``bins``, the nested
+    cells repeat once per bin of the uniform last coordinate (its grid coordinate is the bin)."""
+    nested = []
     for level in range(grid.levels):
         t0, w = triangular(level), level + 1
         for k in _level_cells(grid, level):
             glo = np.array([t0 + kd * w for kd in k], dtype=np.float64)
             ghi = np.minimum(glo + w, grid.n)
-            lo, hi = grid.from_grid(glo), grid.from_grid(ghi)
-            out.append(Box(len(out), tuple(glo), tuple(ghi), tuple(lo), tuple(hi)))
-    assert len(out) == grid.size, "nested grid enumeration disagrees with its level table"
+            nested.append((tuple(glo), tuple(ghi), tuple(grid.from_grid(glo)), tuple(grid.from_grid(ghi))))
+    assert len(nested) == grid.nested_size, "nested grid enumeration disagrees with its level table"
+    if not grid.bins:
+        return [Box(i, *cell) for i, cell in enumerate(nested)]
+    out = []
+    for b in range(grid.bins):
+        blo, bhi = grid.bin_range(b)
+        for glo, ghi, lo, hi in nested:
+            out.append(Box(len(out), glo + (float(b),), ghi + (float(b + 1),), lo + (blo,), hi + (bhi,)))
     return out
 
 

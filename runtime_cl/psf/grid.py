@@ -13,6 +13,11 @@ have at least one zero. Cells are numbered level by level; inside a level, group
 dimension j with k_j = 0 (dims before j count 1..K-1, dims after j count 0..K-1, row-major).
 For ns = 2, n = 9 this gives LSR18 Fig. 5's 28 cells. The forward map is O(ns) and is mirrored
 by ``kernels/psf/psf_space.cl``; the inverse (a list of boxes) lives in ``lab.psf_tracing.space``.
+
+``bins > 0`` makes the last coordinate a uniform one: ``bins`` equal cells over its range, each
+holding a whole nested grid of the other coordinates (cell = bin * nested size + nested cell).
+It is for an angle (motion direction modulo a shaped aperture's symmetry): the nested grid is
+fine only near each axis's low end, which means nothing for an angle.
 """
 from __future__ import annotations
 
@@ -28,6 +33,7 @@ MAX_SAMPLES = 65536           # PSF samples a model may ask for (LSR18's tables 
 MAX_CELLS = 1 << 20           # cells of any grid (a database header cannot ask for more)
 MAX_DIMS = 8                  # PSF-space dimensions (models use 1 or 2)
 MAX_N = 65536 * 65537 // 2    # grid units: T(65536), 65536 levels
+MAX_BINS = 4096               # cells of a uniform coordinate
 
 
 def triangular(l):
@@ -57,12 +63,16 @@ class NestedGrid:
         Physical range per dimension, hi > lo.
     names : tuple of str
         Name of each physical coordinate, for messages and reports.
+    bins : int, default 0
+        0: every coordinate is nested. > 0: the last coordinate is uniform, cut into ``bins``
+        equal cells (its beta must be 1); the nested grid covers the others.
     """
 
     n: int
     beta: tuple
     ranges: tuple
     names: tuple
+    bins: int = 0
     level_offsets: np.ndarray = field(init=False, repr=False, compare=False)
     level_widths: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -84,13 +94,20 @@ class NestedGrid:
         for name, (lo, hi) in zip(self.names, self.ranges):
             if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
                 raise InputError(f"PSF space range of {name} = [{lo}, {hi}]: needs finite hi > lo")
+        if not (isinstance(self.bins, (int, np.integer)) and not isinstance(self.bins, bool)
+                and 0 <= self.bins <= MAX_BINS):
+            raise InputError(f"PSF space bins = {self.bins!r}: must be an integer in [0, {MAX_BINS}]")
+        if self.bins and (self.ns < 2 or self.beta[-1] != 1.0):
+            raise InputError(f"PSF space bins = {self.bins}: the uniform last coordinate needs another "
+                             f"(nested) one and beta 1 (got {self.ns} coordinate(s), beta {self.beta})")
         levels = int(triangular_root(self.n - 1)) + 1 if self.n > 0 else 0
         counts = []
         for l in range(levels):
             k = self.cells_per_row(l)
-            counts.append(k ** self.ns - (k - 1) ** self.ns)
-        if sum(counts) > MAX_CELLS:
-            raise InputError(f"PSF space n = {self.n} in {self.ns} dimension(s) has {sum(counts)} cells, more than "
+            counts.append(k ** self.nested_ns - (k - 1) ** self.nested_ns)
+        total = sum(counts) * max(self.bins, 1)
+        if total > MAX_CELLS:
+            raise InputError(f"PSF space n = {self.n} in {self.ns} dimension(s) has {total} cells, more than "
                              f"{MAX_CELLS} (each cell is a traced PSF and a database row); use fewer samples")
         object.__setattr__(self, "level_offsets", np.concatenate([[0], np.cumsum(counts)]).astype(np.int64))
         object.__setattr__(self, "level_widths", np.arange(1, levels + 1, dtype=np.int64))
@@ -100,13 +117,23 @@ class NestedGrid:
         return len(self.beta)
 
     @property
+    def nested_ns(self) -> int:
+        """Coordinates on the nested grid (all but a uniform last one)."""
+        return self.ns - (self.bins > 0)
+
+    @property
     def levels(self) -> int:
         return len(self.level_widths)
 
     @property
+    def nested_size(self) -> int:
+        """Cells of the nested grid (of one bin)."""
+        return int(self.level_offsets[-1])
+
+    @property
     def size(self) -> int:
         """Number of cells (= PSF samples)."""
-        return int(self.level_offsets[-1])
+        return self.nested_size * max(self.bins, 1)
 
     def cells_per_row(self, level: int) -> int:
         """K: lattice cells along one axis in ``level`` (the last one possibly truncated at n)."""
@@ -114,22 +141,23 @@ class NestedGrid:
         return -(-(self.n - triangular(level)) // w)
 
     @classmethod
-    def for_samples(cls, samples: int, beta, ranges, names) -> "NestedGrid":
-        """The smallest grid with n = T(L) (so no level is truncated) and at least ``samples`` cells."""
+    def for_samples(cls, samples: int, beta, ranges, names, bins: int = 0) -> "NestedGrid":
+        """The smallest grid with n = T(L) (so no level is truncated) and at least ``samples`` cells
+        (``samples`` counts every bin's cells)."""
         if not (isinstance(samples, (int, np.integer)) and not isinstance(samples, bool)
                 and 1 <= samples <= MAX_SAMPLES):
             raise InputError(f"PSF samples = {samples!r}: must be an integer in [1, {MAX_SAMPLES}] (each sample "
                              "is a traced PSF: seconds each, and a row of the database)")
         lo, hi = 1, 1          # the size grows with the level: bracket it, then bisect
-        while cls(triangular(hi), beta, ranges, names).size < samples:
+        while cls(triangular(hi), beta, ranges, names, bins).size < samples:
             lo, hi = hi + 1, 2 * hi
         while lo < hi:
             mid = (lo + hi) // 2
-            if cls(triangular(mid), beta, ranges, names).size >= samples:
+            if cls(triangular(mid), beta, ranges, names, bins).size >= samples:
                 hi = mid
             else:
                 lo = mid + 1
-        return cls(triangular(lo), beta, ranges, names)
+        return cls(triangular(lo), beta, ranges, names, bins)
 
     # --- coordinates -----------------------------------------------------------------------
     def normalise(self, x) -> np.ndarray:
@@ -150,18 +178,23 @@ class NestedGrid:
         return s
 
     def to_grid(self, s) -> np.ndarray:
-        """Normalised s in [0, 1] (..., ns) -> grid coordinates g in [0, n]."""
-        return self.n * np.power(np.asarray(s, dtype=np.float64), 1.0 / np.array(self.beta))
+        """Normalised s in [0, 1] (..., nested_ns) -> grid coordinates g in [0, n]."""
+        return self.n * np.power(np.asarray(s, dtype=np.float64), 1.0 / np.array(self.beta[:self.nested_ns]))
 
     def from_grid(self, g) -> np.ndarray:
-        """Grid coordinates -> physical coordinates."""
-        s = np.power(np.asarray(g, dtype=np.float64) / self.n, np.array(self.beta))
-        lo = np.array([r[0] for r in self.ranges])
-        hi = np.array([r[1] for r in self.ranges])
+        """Grid coordinates (..., nested_ns) -> physical coordinates."""
+        s = np.power(np.asarray(g, dtype=np.float64) / self.n, np.array(self.beta[:self.nested_ns]))
+        lo = np.array([r[0] for r in self.ranges[:self.nested_ns]])
+        hi = np.array([r[1] for r in self.ranges[:self.nested_ns]])
         return lo + s * (hi - lo)
 
+    def bin_range(self, b: int) -> tuple:
+        """Physical [lo, hi] of bin ``b`` of the uniform last coordinate."""
+        lo, hi = self.ranges[-1]
+        return lo + (hi - lo) * b / self.bins, lo + (hi - lo) * (b + 1) / self.bins
+
     def index_of_grid(self, g) -> np.ndarray:
-        """Forward map on grid coordinates (..., ns) in [0, n]^ns -> cell index (int64)."""
+        """Forward map of the nested grid: grid coordinates (..., nested_ns) in [0, n] -> its cell (int64)."""
         g = np.asarray(g, dtype=np.float64)
         level = np.minimum(triangular_root(g.min(axis=-1)), self.levels - 1)
         t0 = triangular(level)
@@ -173,12 +206,13 @@ class NestedGrid:
         j = np.argmax(is_zero, axis=-1)  # first dimension with k_j = 0 (exists by construction)
         index = np.zeros(level.shape, dtype=np.int64)
         # groups before j: count_j' = (K-1)^j' * K^(ns-1-j')
-        for jj in range(self.ns):
+        ns = self.nested_ns
+        for jj in range(ns):
             before = jj < j
-            index += np.where(before, (kmax - 1) ** jj * kmax ** (self.ns - 1 - jj), 0)
+            index += np.where(before, (kmax - 1) ** jj * kmax ** (ns - 1 - jj), 0)
         # rank inside group j: row-major over dims != j, radix K-1 (value k-1) before j, K after
         rank = np.zeros_like(index)
-        for d in range(self.ns):
+        for d in range(ns):
             radix = np.where(d < j, kmax - 1, kmax)
             digit = np.where(d < j, k[..., d] - 1, k[..., d])
             use = d != j
@@ -187,13 +221,18 @@ class NestedGrid:
 
     def index(self, x) -> np.ndarray:
         """Forward map g(x): physical coordinates (..., ns) -> cell index, O(ns) per point."""
-        return self.index_of_grid(self.to_grid(self.normalise(x)))
+        s = self.normalise(x)
+        if not self.bins:
+            return self.index_of_grid(self.to_grid(s))
+        b = np.minimum(np.floor(s[..., -1] * self.bins).astype(np.int64), self.bins - 1)
+        return b * self.nested_size + self.index_of_grid(self.to_grid(s[..., :-1]))
 
     def to_json(self) -> dict:
-        return {"n": int(self.n), "beta": list(self.beta), "ranges": [list(r) for r in self.ranges],
-                "names": list(self.names)}
+        out = {"n": int(self.n), "beta": list(self.beta), "ranges": [list(r) for r in self.ranges],
+               "names": list(self.names)}
+        return dict(out, bins=int(self.bins)) if self.bins else out
 
     @classmethod
     def from_json(cls, data: dict) -> "NestedGrid":
         return cls(int(data["n"]), tuple(data["beta"]), tuple(tuple(r) for r in data["ranges"]),
-                   tuple(data["names"]))
+                   tuple(data["names"]), int(data.get("bins", 0)))

@@ -46,7 +46,7 @@ class PsfSpaceTables:
         real = np.float64 if fp64 else np.float32
         n = int(grid.n)
         thr, bucket, octaves, mbits, thr_off, bucket_off = [], [], [], [], [], []
-        for beta in grid.beta:
+        for beta in grid.beta[:grid.nested_ns]:
             t = (np.arange(n + 1, dtype=np.float64) / n) ** beta
             t = t.astype(real)
             # enough octaves that every s below the first one has floor(g) = 0 (capped for
@@ -66,6 +66,8 @@ class PsfSpaceTables:
         self.bucket = np.concatenate(bucket).astype(np.int32)
         self.options = [
             f"-DPSF_NS={grid.ns}", f"-DPSF_N={n}", f"-DPSF_LEVELS={grid.levels}",
+            f"-DPSF_NESTED={grid.nested_ns}", f"-DPSF_BINS={int(grid.bins)}",
+            f"-DPSF_NESTED_SIZE={grid.nested_size}",
             f"-DPSF_REAL={'double' if fp64 else 'float'}", f"-DPSF_REAL_IS_DOUBLE={int(fp64)}",
             f"-DPSF_LO={_list(float(lo) for lo, _ in grid.ranges)}",
             f"-DPSF_HI={_list(float(hi) for _, hi in grid.ranges)}",

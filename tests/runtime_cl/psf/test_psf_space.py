@@ -87,3 +87,47 @@ def test_for_samples_reaches_the_requested_count():
     for samples, beta in [(100, (2.0,)), (400, (2.0, 1.0)), (4000, (2.5, 1.2))]:
         grid = NestedGrid.for_samples(samples, beta, [(0, 1)] * len(beta), ["x"] * len(beta))
         assert samples <= grid.size < samples * 1.2
+
+
+BINNED = [
+    NestedGrid(9, (2.0, 1.0, 1.0), ((0, 16), (0, 40), (0, 60)), ("coc", "len", "angle"), bins=6),
+    NestedGrid(10, (1.5, 1.0), ((0, 5), (0, 360)), ("coc", "angle"), bins=24),
+]
+
+
+@pytest.mark.parametrize("grid", BINNED, ids=lambda g: f"ns{g.ns}bins{g.bins}")
+def test_a_binned_grid_repeats_the_nested_cells_per_bin(grid):
+    nested = NestedGrid(grid.n, grid.beta[:-1], grid.ranges[:-1], grid.names[:-1])
+    bs = boxes(grid)
+    assert grid.size == len(bs) == grid.bins * nested.size and grid.nested_size == nested.size
+    centres = np.array([b.centre for b in bs])
+    assert np.array_equal(grid.index(centres), np.arange(grid.size))
+    lo, hi = grid.ranges[-1]
+    for b in (0, grid.bins - 1):
+        cells = bs[b * nested.size:(b + 1) * nested.size]
+        assert [c.lo[:-1] for c in cells] == [c.lo for c in boxes(nested)]
+        assert {c.lo[-1] for c in cells} == {lo + (hi - lo) * b / grid.bins}
+        assert {c.hi[-1] for c in cells} == {lo + (hi - lo) * (b + 1) / grid.bins}
+    assert NestedGrid.from_json(grid.to_json()) == grid
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_every_physical_point_of_a_binned_grid_maps_to_its_box(data):
+    grid = data.draw(st.sampled_from(BINNED))
+    x = np.array([data.draw(st.floats(lo, hi, allow_nan=False)) for lo, hi in grid.ranges])
+    b = boxes(grid)[int(grid.index(x[None])[0])]
+    top = np.array([hi for _, hi in grid.ranges])
+    # the physical box edges are rounded from grid ones: allow an ulp
+    assert np.all(x >= np.array(b.lo) - 1e-12 * top), (x, b)
+    assert np.all((x <= np.array(b.hi) + 1e-12 * top)), (x, b)
+
+
+def test_bad_bins_are_a_clear_error():
+    with pytest.raises(InputError, match="bins = -1"):
+        NestedGrid(9, (1.0, 1.0), ((0, 1), (0, 1)), ("a", "b"), bins=-1)
+    with pytest.raises(InputError, match="beta 1"):
+        NestedGrid(9, (1.0, 2.0), ((0, 1), (0, 1)), ("a", "b"), bins=4)
+    with pytest.raises(InputError, match="another"):
+        NestedGrid(9, (1.0,), ((0, 1),), ("a",), bins=4)
+    assert NestedGrid.for_samples(400, (2.0, 1.0, 1.0), [(0, 1)] * 3, ["a", "b", "c"], bins=8).size >= 400

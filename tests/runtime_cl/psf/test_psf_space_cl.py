@@ -21,11 +21,16 @@ GRIDS = [
     NestedGrid(40, (2.0, 1.0), ((0, 256), (0, 100)), ("coc", "len")),
     NestedGrid(7, (1.0, 1.0), ((0, 1), (0, 1)), ("a", "b")),  # truncated last level
     NestedGrid(14, (2.5, 1.2, 0.7), ((0, 1), (-1, 1), (0, 3)), ("x", "y", "z")),
+    NestedGrid(15, (2.0, 1.0, 1.0), ((0, 30), (0, 50), (0, 72)), ("coc", "len", "angle"), bins=9),
+    NestedGrid(10, (1.5, 1.0), ((0, 5), (0, 360)), ("coc", "angle"), bins=24),
 ]
 
 
 def near_boundary(grid, x, rel):
-    g = grid.to_grid(grid.normalise(x))
+    s = grid.normalise(x)
+    g = grid.to_grid(s[..., :grid.nested_ns])
+    if grid.bins:  # the uniform coordinate's edges are at integer bins * s
+        g = np.concatenate([g, s[..., -1:] * grid.bins], axis=-1)
     return np.any(np.abs(g - np.round(g)) <= rel * np.maximum(g, 1.0), axis=-1)
 
 
@@ -41,7 +46,7 @@ def random_points(grid, rng, n=20000):
 
 
 @pytest.mark.parametrize("fp64", [True, False])
-@pytest.mark.parametrize("grid", GRIDS, ids=lambda g: f"n{g.n}-ns{g.ns}")
+@pytest.mark.parametrize("grid", GRIDS, ids=lambda g: f"n{g.n}-ns{g.ns}-bins{g.bins}")
 def test_kernel_matches_numpy(grid, fp64):
     rng = np.random.default_rng(grid.n * 10 + grid.ns)
     x = random_points(grid, rng)

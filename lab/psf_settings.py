@@ -63,16 +63,18 @@ def _stylized(table: dict, scene, image) -> dict:
 
 
 def _combined(table: dict, scene, image) -> dict:
-    """The camera's round aperture; ``max_coc_px`` as :func:`_coc_range` finds it (1 px for a
-    pinhole, whose CoC is 0 everywhere); ``max_motion_px``: the longest motion vector of the
-    input, rounded up to a multiple of 8 px; ``psf_resolution``: the smallest that holds both."""
+    """The camera's aperture (round for a pinhole); ``max_coc_px`` as :func:`_coc_range` finds it
+    (1 px for a pinhole, whose CoC is 0 everywhere); ``max_motion_px``: the longest motion vector
+    of the input, rounded up to a multiple of 8 px; ``psf_resolution``: the smallest that holds
+    both (in every direction for a shaped aperture, which traces them all)."""
     import numpy as np
     from .psf_tracing.models.combined import min_combined_resolution
     from .motion import read_motion
 
-    _from_camera(table, scene, "combined", {"aperture": "circle"})
+    lens = scene.camera.thin_lens()
+    _from_camera(table, scene, "combined", {"aperture": "circle"} if lens is None else scene.camera.aperture_keys())
     if "max_coc_px" not in table:
-        if scene.camera.thin_lens() is None:
+        if lens is None:
             table["max_coc_px"] = 1.0
         else:
             _coc_range(table, scene, image)
@@ -81,7 +83,9 @@ def _combined(table: dict, scene, image) -> dict:
         longest = float(np.hypot(*np.moveaxis(read_motion(image, scene.source, "combined"), -1, 0)).max())
         table["max_motion_px"] = float(max(8, 8 * math.ceil(longest / 8.0)))
     coc, motion, angle = table["max_coc_px"], table["max_motion_px"], table.get("motion_direction_deg", 0.0)
-    if is_number(coc) and coc > 0 and is_number(motion) and motion >= 0 and is_number(angle):  # else the model names it
+    if table["aperture"] != "circle":
+        angle = None
+    if is_number(coc) and coc > 0 and is_number(motion) and motion >= 0 and (angle is None or is_number(angle)):
         table.setdefault("psf_resolution", min_combined_resolution(coc, motion, angle))
     return table
 

@@ -195,16 +195,17 @@ class Camera(abc.ABC):
         same view (look-at frame, horizontal fov), film and sampler (not modified)."""
 
 
-def motion_plan(scene, dof: str) -> dict:
-    """The plan rule of a moving scene seen through a round thin lens or a pinhole (``dof``
-    describes it): LSR18's Combined PSFs (defocus + linear motion capsules) through the spreadlet
-    passes, against Mitsuba sub-frames through the camera's own sensor (:mod:`lab.reference.motion`)."""
+def motion_plan(scene, dof: str, aperture: str = "circle") -> dict:
+    """The plan rule of a moving scene seen through a thin lens or a pinhole (``dof`` describes
+    it; ``aperture`` the lens's aperture): LSR18's Combined PSFs (defocus + linear motion: the
+    aperture swept along the motion) through the spreadlet passes, against Mitsuba sub-frames
+    through the camera's own sensor (:mod:`lab.reference.motion`)."""
     from ..plan import Step
 
     r = scene.render
     return {
         "dof": dof,
-        "aperture": "circle" if dof != "none" else "none (pinhole)",
+        "aperture": aperture if dof != "none" else "none (pinhole)",
         "psf_models": ("combined",),
         "references": (Step("mitsuba_motion", f"Mitsuba sub-frames over the shutter (one per pixel of the "
                                               f"largest motion), {r.reference_spp} spp in all, max depth "

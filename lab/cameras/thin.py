@@ -207,11 +207,7 @@ class ThinCamera(Camera):
             if self.runtime_camera().tilted or self.focal_surface is not None:
                 raise UserError(f"{scene.source} [camera]: a tilted sensor or a focal_surface in a moving scene; the "
                                 "motion model traces an untilted lens: remove the velocities, or the tilt")
-            if self.aperture is not None:
-                raise UserError(f"{scene.source} [camera] aperture = {self.aperture!r}: the scene moves, and the "
-                                "motion-blur model (combined) traces a round aperture; remove the aperture "
-                                "table, or the velocities")
-            return motion_plan(scene, self._dof())
+            return motion_plan(scene, self._dof(), self._aperture_text())
         if self.iris() is not None:
             return self._plan_iris(scene)
         if self.shaped() is not None:
@@ -257,8 +253,7 @@ class ThinCamera(Camera):
                                                          "layered input"))
         return {
             "dof": self._dof(),
-            "aperture": (f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, "
-                         f"rounding {iris.rounding:g})"),
+            "aperture": self._aperture_text(),
             "psf_models": (),
             "references": (Step("mitsuba_polygon_lens", f"Mitsuba path trace through the thin lens with the "
                                                         f"{iris.blades}-blade iris (lab.reference.aperture_lens), "
@@ -273,7 +268,7 @@ class ThinCamera(Camera):
         shape, r = self.shaped(), scene.render
         return {
             "dof": self._dof(),
-            "aperture": f"{shape.shape} (stylized)",
+            "aperture": self._aperture_text(),
             "psf_models": ("stylized",),
             "references": (Step("mitsuba_aperture_lens", f"Mitsuba path trace through the thin lens with "
                                                          f"the {shape.shape} aperture (lab.reference."
@@ -283,6 +278,20 @@ class ThinCamera(Camera):
             "skipped": (Step("polygon passes", f"MHU21's kernels are polygons; a {shape.shape} aperture "
                                                "runs through the stylized database"),),
         }
+
+    def _aperture_text(self) -> str:
+        iris, shaped = self.iris(), self.shaped()
+        if iris is not None:
+            return f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, rounding {iris.rounding:g})"
+        return "circle" if shaped is None else f"{shaped.shape} (stylized)"
+
+    def aperture_keys(self) -> dict:
+        """The ``aperture*`` keys of a PSF model's configuration for this lens's aperture."""
+        iris, shaped = self.iris(), self.shaped()
+        if iris is not None:
+            return {"aperture": "polygon", "aperture_blades": iris.blades,
+                    "aperture_rotation_deg": float(iris.rotation_deg), "aperture_rounding": float(iris.rounding)}
+        return {"aperture": "circle"} if shaped is None else shaped.model_keys()
 
     def aperture_params(self) -> dict | None:
         """The lens's aperture as the reference sensor (:mod:`lab.reference.aperture_lens`) and the

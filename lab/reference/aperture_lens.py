@@ -19,7 +19,7 @@ from __future__ import annotations
 import functools
 
 from .backend import mitsuba
-from .python_sensor import clipped_ray, point_bbox, ray_differential
+from .python_sensor import clipped_ray, point_bbox, ray_differential, traverse_to_world
 
 PLUGIN = "splatlab_aperture_thinlens"
 SHAPE_PARAMS = ("blades", "rotation_deg", "rounding", "path")   # plugin properties an aperture takes
@@ -66,6 +66,7 @@ def register() -> str:
 
         sample_ray_differential = ray_differential
         bbox = point_bbox
+        traverse = traverse_to_world
 
         def to_string(self):
             return (f"ApertureThinLens[aperture={self.iris}, aperture_radius={self.radius}, "

@@ -1,18 +1,27 @@
 """What every Python ``mi.Sensor`` of the lab shares (the thin lens through an aperture shape,
 the tilted thin lens, the thick lens): a ray differential without differentials, a point bounding
-box at the sensor's origin (assign them in the class body: ``sample_ray_differential =
-ray_differential``), and a thin lens's camera-space ray clipped to the near and far planes."""
+box at the sensor's origin, the ``to_world`` transform as a scene parameter (so the motion
+reference's sub-frames can move the camera; assign them in the class body:
+``sample_ray_differential = ray_differential``), and a thin lens's camera-space ray clipped to
+the near and far planes."""
 from __future__ import annotations
 
 from .backend import mitsuba
 
-__all__ = ["clipped_ray", "point_bbox", "ray_differential"]
+__all__ = ["clipped_ray", "point_bbox", "ray_differential", "traverse_to_world"]
 
 
 def ray_differential(self, time, sample1, sample2, sample3, active=True):
     """``sample_ray`` wrapped as a ray differential (no differentials: the box filter needs none)."""
     ray, weight = self.sample_ray(time, sample1, sample2, sample3, active)
     return mitsuba().RayDifferential3f(ray), weight
+
+
+def traverse_to_world(self, callback):
+    """``mi.traverse`` lists ``to_world`` (Mitsuba's C++ sensors do; a Python one must say so)."""
+    mi = mitsuba()
+    mi.Sensor.traverse(self, callback)
+    callback.put("to_world", self.m_to_world, mi.ParamFlags.NonDifferentiable)
 
 
 def point_bbox(self):

@@ -27,7 +27,7 @@ import json
 import math
 
 from .backend import mitsuba
-from .python_sensor import point_bbox, ray_differential
+from .python_sensor import point_bbox, ray_differential, traverse_to_world
 
 PLUGIN = "splatlab_thick_lens"
 
@@ -85,6 +85,7 @@ def register() -> str:
 
         sample_ray_differential = ray_differential
         bbox = point_bbox
+        traverse = traverse_to_world
 
         def to_string(self):
             return (f"ThickLensSensor[wavelength_nm={self.wavelength}, sensor_z_mm={self.pupil.sensor_z_mm:.4f}, "

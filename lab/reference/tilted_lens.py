@@ -22,7 +22,7 @@ import functools
 import math
 
 from .backend import mitsuba
-from .python_sensor import clipped_ray, point_bbox, ray_differential
+from .python_sensor import clipped_ray, point_bbox, ray_differential, traverse_to_world
 
 PLUGIN = "splatlab_tilted_thinlens"
 
@@ -68,6 +68,7 @@ def register() -> str:
 
         sample_ray_differential = ray_differential
         bbox = point_bbox
+        traverse = traverse_to_world
 
         def to_string(self):
             return (f"TiltedThinLens[aperture_radius={self.radius}, focal_length={self.f}, "

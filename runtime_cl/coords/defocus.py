@@ -4,7 +4,9 @@ All three index PSFs by |CoC radius| in pixels (:mod:`runtime_cl.camera.thin_len
 of points in front of the focal plane. Symmetry ``coc_sign``: a point behind it (signed CoC > 0)
 is drawn with the stored PSF turned by 180 degrees. ``combined`` adds the motion length in
 pixels and the symmetry ``motion_direction``: its PSFs are traced for motion along the config's
-``motion_direction_deg``, so a pixel moving at angle phi is drawn turned by phi minus that.
+``motion_direction_deg``, so a pixel moving at angle phi is drawn turned by phi minus that. With a
+shaped aperture it adds the motion angle modulo the aperture's turn period instead (symmetry
+``motion_angle``, uniform bins): a pixel is drawn turned by phi minus its bin's centre.
 """
 from __future__ import annotations
 
@@ -115,10 +117,13 @@ def combined_coords(camera: ThinLens, depth, db: SpreadletDatabase, motion) -> P
     PsfCoords
         ``angle`` = atan2(Y, X) - the reference direction, plus pi behind the focal plane
         (``coc_sign``; exact for the capsule, whose motion segment is centred). A still pixel
-        (length 0) is turned by the ``coc_sign`` part alone.
+        (length 0) is turned by the ``coc_sign`` part alone. A shaped aperture's database
+        (``motion_angle``) adds the third coordinate and turns by atan2(Y, X) minus its bin's
+        centre instead (:func:`_motion_angle`).
     """
-    expect_space(db, "combined", COC + ("motion_px",))
-    check_symmetries(db, ("motion_direction", "coc_sign"))
+    binned = db.grid.bins > 0
+    expect_space(db, "combined", COC + ("motion_px",) + (("motion_angle_deg",) if binned else ()))
+    check_symmetries(db, ("motion_angle" if binned else "motion_direction", "coc_sign"))
     coc, r = _coc(camera, depth, db)
     m = as_motion(motion, coc.shape)
     length = np.hypot(m[..., 0], m[..., 1])
@@ -127,6 +132,25 @@ def combined_coords(camera: ThinLens, depth, db: SpreadletDatabase, motion) -> P
         return f"rebuild the database with max_motion_px of at least {float(np.ceil(largest))}"
 
     length32 = in_range("motion length", length, db, 1, "px", fix)
+    phi = np.arctan2(m[..., 1], m[..., 0])
+    if binned:
+        theta, centre = _motion_angle(np.degrees(phi), db)
+        return PsfCoords(np.stack([r, length32, theta], axis=-1),
+                         wrap_angle(phi - np.radians(centre) + _behind_focus(coc)))
     reference = math.radians(float(db.params.get("config", {}).get("motion_direction_deg", 0.0)))
-    angle = np.arctan2(m[..., 1], m[..., 0]) - reference + _behind_focus(coc)
-    return PsfCoords(np.stack([r, length32], axis=-1), wrap_angle(angle))
+    return PsfCoords(np.stack([r, length32], axis=-1), wrap_angle(phi - reference + _behind_focus(coc)))
+
+
+def _motion_angle(phi_deg: np.ndarray, db: SpreadletDatabase) -> tuple:
+    """(the motion angle coordinate as float32: ``phi_deg`` modulo the period, inside the database's
+    range [lo, lo + period]; the centre of its bin in degrees). Turning the bin's PSF by phi minus
+    that centre turns it by a multiple of the period (which maps the aperture onto itself) plus
+    the coordinate's offset from the centre. The bin is found from the float32 coordinate exactly
+    as ``psf/psf_space.cl`` finds it, so the turn always belongs to the PSF drawn."""
+    grid = db.grid
+    lo, hi = grid.ranges[-1]
+    theta = in_range("motion angle", np.remainder(phi_deg - lo, hi - lo) + lo, db, grid.ns - 1, "deg",
+                     lambda *_: REBUILD)   # always inside: the remainder is
+    s = (theta.astype(np.float64) - lo) / (hi - lo)
+    b = np.minimum(np.floor(s * grid.bins), grid.bins - 1)
+    return theta, lo + (b + 0.5) * (hi - lo) / grid.bins

@@ -62,6 +62,13 @@ class Aperture(abc.ABC):
     def area(self) -> float:
         """Area of the shape at unit circumradius."""
 
+    @property
+    def turn_period_deg(self) -> float:
+        """The smallest turn in degrees that maps the shape onto itself: 360 (none) unless the
+        shape says otherwise, 0 for the circle (every turn). A moving lens traces motion
+        directions modulo it (:mod:`lab.psf_tracing.models.combined`)."""
+        return 360.0
+
     @abc.abstractmethod
     def contains(self, x, y) -> np.ndarray:
         """numpy indicator of the closed shape at points (x, y) (unit circumradius)."""

@@ -70,6 +70,10 @@ class StarAperture(ImageAperture):
     def weights(self) -> np.ndarray:
         return star_raster()
 
+    @property
+    def turn_period_deg(self) -> float:
+        return 72.0
+
 
 @register_aperture("heart")
 @dataclass(frozen=True, eq=False)

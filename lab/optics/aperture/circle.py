@@ -28,6 +28,10 @@ class CircleAperture(Aperture):
     def area(self) -> float:
         return math.pi
 
+    @property
+    def turn_period_deg(self) -> float:
+        return 0.0
+
     def contains(self, x, y) -> np.ndarray:
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         return x * x + y * y <= 1.0

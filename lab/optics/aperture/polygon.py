@@ -56,6 +56,10 @@ class PolygonAperture(Aperture):
         half, apothem, h, rho = self._wedge
         return self.blades * (apothem * h + 2.0 * h * rho + rho * rho * half)
 
+    @property
+    def turn_period_deg(self) -> float:
+        return 0.0 if self.rounding == 1.0 else 360.0 / self.blades
+
     def _wedge_normal_angle(self, k):
         """Angle (radians) of the edge normal of wedge k; corner 0 at rotation + 90 degrees."""
         return math.radians(self.rotation_deg) + math.pi / 2 + (2 * k + 1) * math.pi / self.blades

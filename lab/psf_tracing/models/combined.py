@@ -1,6 +1,6 @@
 """Combined (LSR18 section 5.1, Tbl. 1): thin-lens depth of field plus linear motion blur.
 
-ns = 2, monochrome. Coordinates: the |CoC radius| in pixels over [0, max_coc_px] (beta 2) and the
+ns = 2 (3 with a shaped aperture, below), monochrome. Coordinates: the |CoC radius| in pixels over [0, max_coc_px] (beta 2) and the
 motion length in pixels over [0, max_motion_px] (beta 1), on a nested grid of 400 samples. Each
 ray takes both from the cell's box (pre-filtering), the near-side depth whose CoC is -r (as
 SimpleLens), an aperture point and a shutter time t; it lands where the thin lens sends it plus
@@ -8,14 +8,20 @@ the motion displacement (t - 1/2) * length along the reference direction
 (:class:`lab.optics.motion.LinearMotion`). The result is the capsule: the aperture swept along a
 segment, darker at the ends where fewer shutter times cover a pixel.
 
-Symmetries (see :mod:`lab.psf_tracing.models.common`): ``motion_direction`` -- only the reference
-direction ``motion_direction_deg`` is traced; a runtime rotates the spreadlets by the pixel's
-motion angle minus it. ``coc_sign`` -- stored PSFs are points in front of the focal plane; one
-behind it is drawn rotated by 180 degrees (the centred motion segment maps onto itself, so this
-is exact). For a circular aperture the motion rotation is exact. For a polygon it is not: the
-rotation turns the polygon with the motion, so the bokeh's corners follow the motion direction
-instead of staying fixed in the frame (exact only when the angle is a multiple of 360 / blades).
-A third coordinate (motion angle modulo the polygon's symmetry) would make it exact.
+Symmetries (see :mod:`lab.psf_tracing.models.common`): ``coc_sign`` -- stored PSFs are points in
+front of the focal plane; one behind it is drawn rotated by 180 degrees (the centred motion
+segment maps onto itself, so this is exact). For the round aperture, ``motion_direction`` -- only
+the reference direction ``motion_direction_deg`` is traced; a runtime rotates the spreadlets by
+the pixel's motion angle minus it, which is exact for a disc.
+
+A shaped aperture (polygon iris, star, heart, image) does not turn with the motion: its corners
+stay put in the frame. Its PSFs take a third, uniform coordinate (``motion_angle``): the motion
+direction modulo the aperture's turn period P (60 degrees for a hexagon, 72 for the star, 360 for
+a heart), in ``angle_bins`` bins of width w = P / bins centred on 0, w, 2w, ... Each cell is traced
+with the aperture upright and the motion direction drawn over its bin (pre-filtering); a pixel
+moving at phi takes the bin of phi mod P and is drawn turned by phi minus the bin's centre: the
+motion direction is exact and the aperture is off by at most w / 2 (and by none for motion along
+a bin centre, e.g. horizontal). Turns by multiples of P are exact, as the shape maps onto itself.
 """
 from __future__ import annotations
 
@@ -23,6 +29,8 @@ import math
 from dataclasses import dataclass
 from functools import cached_property
 
+import drjit as dr
+from drjit.llvm import Array2f
 
 from lab.errors import UserError
 from lab.optics.aperture import Aperture
@@ -34,18 +42,23 @@ from lab.psf_tracing.models.common import (ApertureKeys, LensKeys, check_common,
 from lab.psf_tracing.models.simple_lens import PSF_MARGIN_PX
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import RayHits
+from runtime_cl.psf.grid import MAX_BINS, MAX_SAMPLES
 
 __all__ = ["Combined", "CombinedConfig", "min_combined_resolution"]
 
 
-def min_combined_resolution(max_coc_px: float, max_motion_px: float, direction_deg: float = 0.0) -> int:
+DEFAULT_BIN_DEG = 10.0   # widest default motion-angle bin of a shaped aperture
+
+
+def min_combined_resolution(max_coc_px: float, max_motion_px: float, direction_deg: float | None = 0.0) -> int:
     """Smallest R whose image, centred at R//2, holds every capsule of the range plus the margin.
 
     The largest capsule reaches max_coc_px + |cos| max_motion_px / 2 from the centre along x and
-    max_coc_px + |sin| max_motion_px / 2 along y (direction ``direction_deg``).
+    max_coc_px + |sin| max_motion_px / 2 along y (direction ``direction_deg``; None: any direction).
     """
-    a = math.radians(direction_deg)
-    half = max_coc_px + 0.5 * max_motion_px * max(abs(math.cos(a)), abs(math.sin(a)))
+    a = math.radians(direction_deg or 0.0)
+    reach = 1.0 if direction_deg is None else max(abs(math.cos(a)), abs(math.sin(a)))
+    half = max_coc_px + 0.5 * max_motion_px * reach
     return 2 * (math.ceil(half - 1e-9) + PSF_MARGIN_PX) + 1
 
 
@@ -77,8 +90,13 @@ class CombinedConfig(LensKeys, ApertureKeys):
     seed : int, default 0
         Random seed (>= 0); same seed, same PSFs bitwise.
     motion_direction_deg : float, default 0
-        The reference direction traced, degrees counter-clockwise from image +x (y up); the
-        runtime rotates from it (symmetry ``motion_direction``).
+        The reference direction traced for the round aperture, degrees counter-clockwise from
+        image +x (y up); the runtime rotates from it (symmetry ``motion_direction``). A shaped
+        aperture traces every direction (``angle_bins``) and takes none.
+    angle_bins : int, optional
+        Shaped apertures only: bins of the motion direction modulo the aperture's turn period
+        (symmetry ``motion_angle``); default: bins of at most 10 degrees (6 for a hexagon, 8 for
+        the star, 36 for a heart). ``samples`` PSFs are traced per bin.
     basis : {"dual", "laplacian"}, default "dual"
         What the sparsifier stores. ``"dual"``: every cell twice, as LSR18's Laplacian
         spreadlets and as row differences (:mod:`lab.sparsify.rows`); the runtime draws a pixel
@@ -102,6 +120,7 @@ class CombinedConfig(LensKeys, ApertureKeys):
     density: float = 1.0
     seed: int = 0
     motion_direction_deg: float = 0.0
+    angle_bins: int | None = None
     basis: str = "dual"
 
     def __post_init__(self):
@@ -118,13 +137,28 @@ class CombinedConfig(LensKeys, ApertureKeys):
             check_number("beta", b)
         check_common(self)
         LinearMotion(self.motion_direction_deg)
-        need = min_combined_resolution(self.max_coc_px, self.max_motion_px, self.motion_direction_deg)
+        period = self.check_aperture().turn_period_deg
+        if period == 0.0:
+            if self.angle_bins is not None:
+                raise UserError(f"angle_bins = {self.angle_bins!r}: a round aperture looks the same in every "
+                                "motion direction; remove the key")
+        else:
+            if self.motion_direction_deg != 0.0:
+                raise UserError(f"motion_direction_deg = {self.motion_direction_deg!r}: aperture = "
+                                f"{self.aperture!r} traces every motion direction (angle_bins); remove the key")
+            if self.angle_bins is None:
+                object.__setattr__(self, "angle_bins", math.ceil(period / DEFAULT_BIN_DEG - 1e-9))
+            check_number("angle_bins", self.angle_bins, integer=True)
+            if self.angle_bins > MAX_BINS or self.samples * self.angle_bins > MAX_SAMPLES:
+                raise UserError(f"angle_bins = {self.angle_bins}: at most {MAX_BINS}, and samples x angle_bins "
+                                f"at most {MAX_SAMPLES} (each is a traced PSF); use fewer")
+        direction = None if self.angle_bins else self.motion_direction_deg
+        need = min_combined_resolution(self.max_coc_px, self.max_motion_px, direction)
         if self.psf_resolution < need:
             raise UserError(
                 f"psf_resolution = {self.psf_resolution} cannot hold a capsule of CoC radius "
                 f"{self.max_coc_px} px and motion {self.max_motion_px} px plus a {PSF_MARGIN_PX}-pixel "
                 f"margin; use psf_resolution >= {need} (or smaller max_coc_px / max_motion_px)")
-        self.check_aperture()
         self.check_lens()
         if self.basis not in ("dual", "laplacian"):
             raise UserError(f"basis = {self.basis!r}: choose one of ['dual', 'laplacian'] (row differences "
@@ -133,10 +167,10 @@ class CombinedConfig(LensKeys, ApertureKeys):
 
 @register_model("combined")
 class Combined(PSFModel):
-    """DoF + linear motion PSFs indexed by (|CoC radius|, motion length) in pixels."""
+    """DoF + linear motion PSFs indexed by (|CoC radius|, motion length) in pixels, and for a shaped
+    aperture the motion angle modulo its turn period in degrees."""
 
     Config = CombinedConfig
-    symmetries = ("motion_direction", "coc_sign")
     channels = 1
 
     def __init__(self, config: CombinedConfig):
@@ -146,28 +180,43 @@ class Combined(PSFModel):
         self.motion = LinearMotion(config.motion_direction_deg)
 
     @property
+    def symmetries(self) -> tuple:
+        return ("motion_angle" if self.config.angle_bins else "motion_direction", "coc_sign")
+
+    @property
     def reference_direction_deg(self) -> float:
-        """The traced motion direction (counter-clockwise from image +x, y up)."""
+        """The traced motion direction of the round aperture (counter-clockwise from image +x, y up)."""
         return self.config.motion_direction_deg
 
     @cached_property
     def grid(self) -> NestedGrid:
         c = self.config
-        return NestedGrid.for_samples(c.samples, c.beta, ((0.0, c.max_coc_px), (0.0, c.max_motion_px)),
-                                      ("coc_radius_px", "motion_px"))
+        ranges, names = ((0.0, c.max_coc_px), (0.0, c.max_motion_px)), ("coc_radius_px", "motion_px")
+        if not c.angle_bins:
+            return NestedGrid.for_samples(c.samples, c.beta, ranges, names)
+        period = self.aperture.turn_period_deg
+        half = 0.5 * period / c.angle_bins   # bins centred on 0, w, 2w, ...
+        return NestedGrid.for_samples(c.samples * c.angle_bins, tuple(c.beta) + (1.0,),
+                                      ranges + ((-half, period - half),), names + ("motion_angle_deg",),
+                                      bins=c.angle_bins)
 
     def rays_for_cell(self, cell: int) -> int:
         """max(rays_per_psf, rays_per_pixel * capsule area at the cell's largest r and l)."""
         c = self.config
-        r, length = self.boxes[cell].hi
+        r, length = self.boxes[cell].hi[:2]
         area = self.aperture.area * (r + 0.5) ** 2 + (2.0 * r + 1.0) * length
         return whole_launches(max(c.rays_per_psf, math.ceil(c.rays_per_pixel * area)), c.rays_per_launch)
 
     def rays(self, coords: list, rng) -> RayHits:
-        """Per ray: (|CoC| r, motion l) -> near-side depth, aperture point, shutter time -> pixels."""
-        r, length = coords
+        """Per ray: (|CoC| r, motion l[, motion angle]) -> near-side depth, aperture point, shutter
+        time -> pixels."""
+        r, length = coords[:2]
         width = self.config.lens_width_px
         inv_depth = self.lens.inv_depth_for_coc_px(-r, width)
         h = self.aperture.sample_rng(rng) * self.lens.aperture_radius_m
         t = rng.next_float32()
+        if self.config.angle_bins:   # the ray's own direction, drawn over the cell's bin
+            s, c = dr.sincos(dr.deg2rad(coords[2]))
+            step = (t - 0.5) * length
+            return RayHits(self.lens.psf_offset_px(h, inv_depth, width) + Array2f(step * c, -step * s))
         return RayHits(self.lens.psf_offset_px(h, inv_depth, width) + self.motion.offset_px(t, length))

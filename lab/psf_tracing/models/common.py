@@ -17,6 +17,11 @@ runtime must do with them:
     Traced for motion along the config's ``motion_direction_deg``; a pixel moving at angle
     phi (counter-clockwise from image +x, y up) is drawn with the PSF rotated by
     phi - motion_direction_deg (plus 180 degrees if ``"coc_sign"`` applies and CoC > 0).
+``"motion_angle"``
+    A shaped aperture's motion: the PSF space's last coordinate is the motion direction in
+    degrees modulo the aperture's turn period, a uniform coordinate whose bins are centred on
+    multiples of their width. A pixel moving at phi takes the bin of phi modulo the period and
+    is drawn turned by phi minus the bin's centre (plus 180 degrees as ``"coc_sign"`` says).
 ``"optical_axis"``
     The optics are rotation symmetric about the optical axis, but the PSF varies across the
     image: only pixels on the image's +x side of the centre are traced (reference direction 0),
@@ -41,7 +46,7 @@ from runtime_cl.psf.grid import MAX_SAMPLES
 __all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "check_number", "check_common", "whole_launches",
            "SYMMETRY_TAGS"]
 
-SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "optical_axis")
+SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "motion_angle", "optical_axis")
 
 # config key -> the aperture class's parameter
 _APERTURE_PARAMS = {"aperture_blades": "blades", "aperture_rotation_deg": "rotation_deg",

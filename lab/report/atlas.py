@@ -58,7 +58,8 @@ def select_cells(db, columns: int = 8, blocks: int = 4) -> list[list[int]]:
     """Sample indices to show, as rows of cells: ``columns`` per row, ``blocks`` rows for a 2-D space.
 
     Each target is a point of a lattice over the grid coordinates [0, n]^ns; the cell whose box
-    centre is nearest is shown (repeats removed). Dimensions beyond the second sit at their middle.
+    centre is nearest is shown (repeats removed). Dimensions beyond the second sit at their middle,
+    a uniform (binned) last one in its first bin (a motion angle: the bin centred on 0 degrees).
     """
     from lab.psf_tracing.space import boxes
 
@@ -66,6 +67,8 @@ def select_cells(db, columns: int = 8, blocks: int = 4) -> list[list[int]]:
     centres = np.array([[(a + b) / 2 for a, b in zip(bx.grid_lo, bx.grid_hi)] for bx in boxes(grid)])
     per_dim = [columns] if grid.ns == 1 else [blocks, columns] + [1] * (grid.ns - 2)
     axes = [np.linspace(0, grid.n, k) if k > 1 else np.array([grid.n / 2]) for k in per_dim]
+    if grid.bins:
+        axes[-1] = np.array([0.5])
     rows = []
     for first in axes[0] if grid.ns > 1 else [None]:
         row = []

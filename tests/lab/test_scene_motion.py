@@ -84,9 +84,20 @@ def test_a_moving_pinhole_scene_blurs_motion_alone():
     assert [r.name for r in plan.references] == ["mitsuba_motion"]
 
 
+@pytest.mark.parametrize("aperture, says, keys", [
+    ({"blades": 6}, "polygon (6 blades", {"aperture": "polygon", "aperture_blades": 6, "aperture_rotation_deg": 0.0,
+                                         "aperture_rounding": 0.0}),
+    ({"shape": "star"}, "star (stylized)", {"aperture": "star"}),
+])
+def test_a_moving_lens_with_a_shaped_aperture_sweeps_that_aperture(aperture, says, keys):
+    s = scene({**THIN, "aperture": aperture}, [{**BALL, "velocity": [0.1, 0, 0]}])
+    plan = make_plan(s)
+    assert plan.psf_models == ("combined",) and plan.effects["aperture"].startswith(says)
+    assert [r.name for r in plan.references] == ["mitsuba_motion"]
+    assert s.camera.aperture_keys() == keys    # what the combined database is traced with
+
+
 @pytest.mark.parametrize("camera, extra, needles", [
-    ({**THIN, "aperture": {"blades": 6}}, {}, ["aperture", "round aperture"]),
-    ({**THIN, "aperture": {"shape": "star"}}, {}, ["aperture", "round aperture"]),
     (PINHOLE, {"medium": {"sigma_t": 0.1}}, ["[medium]", "motion"]),
 ])
 def test_motion_with_what_no_model_combines_is_an_error(camera, extra, needles):

@@ -11,6 +11,7 @@ from lab.errors import UserError
 from lab.psf_tracing.analytic import prefiltered_disc_psf
 from lab.psf_tracing.models import get_model, load_model
 from lab.psf_tracing.models.combined import Combined, CombinedConfig, min_combined_resolution
+from lab.optics.motion import LinearMotion
 from lab.psf_tracing.tracer import RayHits, trace_psf
 from runtime_cl.psf.disc import disc_area_in_rect
 
@@ -148,26 +149,27 @@ def test_rotating_the_reference_direction_is_a_rotation_of_the_psf():
 def test_far_side_is_the_stored_psf_rotated_by_180_degrees():
     """The runtime rule for symmetry coc_sign, checked against a physical trace of a point behind
     the focal plane (CoC > 0) through a triangular iris, whose two orientations differ."""
-    m = load_model("combined", {**BASE, "aperture": "polygon", "aperture_blades": 3,
-                                "motion_direction_deg": 30.0})
-    r, length = 8.0, 14.0
+    m = load_model("combined", {**BASE, "aperture": "polygon", "aperture_blades": 3})
+    r, length, direction = 8.0, 14.0, 30.0
+    motion = LinearMotion(direction)
     assert r < m.lens.max_far_coc_px(m.config.lens_width_px)
 
     def far_side(coords, rng):
         inv_depth = m.lens.inv_depth_for_coc_px(coords[0], m.config.lens_width_px)
         h = m.aperture.sample_rng(rng) * m.lens.aperture_radius_m
         off = m.lens.psf_offset_px(h, inv_depth, m.config.lens_width_px)
-        return RayHits(off + m.motion.offset_px(rng.next_float32(), coords[1]))
+        return RayHits(off + motion.offset_px(rng.next_float32(), coords[1]))
 
     far = trace_psf(far_side, [r, length], [r, length], R, 2 ** 19, seed=6).psf[..., 0]
-    stored = m.trace_box([r, length], [r, length], n_rays=2 ** 19, seed=6).psf[..., 0]
+    point = [r, length, direction]
+    stored = m.trace_box(point, point, n_rays=2 ** 19, seed=6).psf[..., 0]
     assert np.abs(np.rot90(stored, 2) - far).sum() < 0.05
     assert np.abs(stored - far).sum() > 0.2
 
 
 def test_polygon_capsule_sweeps_the_polygon():
     m = load_model("combined", {**BASE, "aperture": "polygon", "aperture_blades": 6})
-    psf = m.trace_box([10.0, 0.0], [10.0, 0.0], n_rays=2 ** 18, seed=7).psf[..., 0]
+    psf = m.trace_box([10.0, 0.0, 0.0], [10.0, 0.0, 0.0], n_rays=2 ** 18, seed=7).psf[..., 0]
     ys, xs = np.nonzero(psf)
     # hexagon, corner up (near side: down): 10 px up/down, apothem 8.66 px sideways
     assert np.abs(ys - R // 2).max() == 10 and np.abs(xs - R // 2).max() == 9
@@ -188,6 +190,10 @@ def test_polygon_capsule_sweeps_the_polygon():
     ({"aperture": "image", "aperture_image": "/nonexistent/iris.png"}, "iris.png: no such file"),
     ({"motion_px": 3.0}, r"unknown key\(s\) \['motion_px'\]"),
     ({"basis": "rows"}, r"basis = 'rows': choose one of \['dual', 'laplacian'\]"),
+    ({"angle_bins": 4}, "round aperture looks the same"),
+    ({"aperture": "star", "angle_bins": 0}, "angle_bins = 0"),
+    ({"aperture": "star", "angle_bins": 5000}, "at most 4096"),
+    ({"aperture": "heart", "motion_direction_deg": 30.0}, "traces every motion direction"),
     ({"samples": 0}, "samples"),
 ])
 def test_bad_config_is_a_user_error_before_tracing(table, match):

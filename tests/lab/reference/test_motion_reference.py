@@ -50,6 +50,20 @@ def test_the_animated_scene_is_the_scene_built_still_at_that_time(moving, t):
     np.testing.assert_allclose(animated, RenderJob(still, 4, "input", "pinhole").render(one), atol=1e-3)
 
 
+@pytest.mark.parametrize("aperture", [{"blades": 6}, {"shape": "star"}])
+def test_a_moving_camera_moves_the_shaped_aperture_sensor_too(moving, aperture):
+    """The reference of a moving thin lens with an iris or a shape renders through a Python
+    sensor (lab.reference.aperture_lens), which must list its to_world for the sub-frames to
+    move it: sub-frame t renders as the still scene placed at t does."""
+    scene = replace(moving, camera=replace(moving.camera, velocity=(0.05, 0.02, 0.1), aperture=aperture))
+    job = MotionJob(scene, 4, "reference", "scene", subframes=1)
+    one = replace(job.passes()[0], variant=(("time", 0.7),))
+    animated = job.render(one)
+    still = RenderJob(frozen_at(scene, 0.7), 4, "reference", "scene").render(one)
+    np.testing.assert_allclose(animated, still, atol=1e-3)
+    assert np.abs(animated - RenderJob(scene, 4, "reference", "scene").render(one)).max() > 0.05
+
+
 def test_pixel_centre_hits_project_back_to_their_pixels(moving):
     scene = replace(moving, camera=replace(moving.camera, velocity=(0.05, 0.0, 0.1)))
     mi_scene = load(scene, "pinhole")

@@ -188,7 +188,7 @@ def _volume_far(table: dict, scene, image) -> dict:
 
 
 def _physical_lens(table: dict, scene, image) -> dict:
-    """The camera's lens, focus and wavelengths, the input's sensor (its header's: wider than the
+    """The camera's lens, focus, wavelengths and stop shape, the input's sensor (its header's: wider than the
     scene's with a guard band) with the input's width and aspect, then the range of the input's
     depths rounded out (near down to 5 cm, far up to 0.5 m, so small scene edits reuse the
     database) and the PSF size that holds the widest PSF."""
@@ -201,7 +201,7 @@ def _physical_lens(table: dict, scene, image) -> dict:
     sensor = float((image.camera or {}).get("sensor_width_mm", cam.sensor_width_mm))
     keys = dict(surfaces=cam.rows(), focus_distance_m=cam.focus_distance_m, focus=FOCUS,
                 wavelengths_nm=WAVELENGTHS_NM, focus_wavelength_nm=FOCUS_WAVELENGTH_NM, width_px=image.width,
-                sensor_width_mm=sensor, sensor_height_mm=sensor * image.height / image.width)
+                sensor_width_mm=sensor, sensor_height_mm=sensor * image.height / image.width, **cam.aperture_keys())
     _from_camera(table, scene, "physical_lens", keys)
     depth = np.asarray(image.depth, np.float64)
     sky = int(np.count_nonzero(~np.isfinite(depth)))

@@ -203,12 +203,14 @@ def motion_plan(scene, dof: str, aperture: str = "circle") -> dict:
     from ..plan import Step
 
     r = scene.render
+    sensor = "" if aperture == "circle" else f" through the thin lens with the {aperture} aperture " \
+                                              "(lab.reference.aperture_lens)"
     return {
         "dof": dof,
         "aperture": aperture if dof != "none" else "none (pinhole)",
         "psf_models": ("combined",),
-        "references": (Step("mitsuba_motion", f"Mitsuba sub-frames over the shutter (one per pixel of the "
-                                              f"largest motion), {r.reference_spp} spp in all, max depth "
+        "references": (Step("mitsuba_motion", f"Mitsuba sub-frames over the shutter{sensor} (one per pixel of "
+                                              f"the largest motion), {r.reference_spp} spp in all, max depth "
                                               f"{r.max_depth}"),),
         "runtime_passes": ("spreadlets", "splat", "filter"),
         "skipped": (),

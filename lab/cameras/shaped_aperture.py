@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from ..errors import UserError
 
-__all__ = ["SHAPES", "ShapedAperture"]
+__all__ = ["SHAPES", "ApertureTable", "ShapedAperture"]
 
 SHAPES = ("star", "heart", "image")
 
@@ -61,3 +61,76 @@ class ShapedAperture:
     def sensor_params(self) -> dict:
         """The parameters of :mod:`lab.reference.aperture_lens`'s sensor."""
         return {"aperture": self.shape, **({"path": self.path} if self.path else {})}
+
+
+class ApertureTable:
+    """What a lens camera with an ``aperture`` key (thin or thick) makes of it: a polygonal iris
+    ``{ blades = 6, rotation_deg = 0, rounding = 0 }``, a stylized shape ``{ shape = "star" }``, or
+    None for the round aperture."""
+
+    def iris(self):
+        """The polygonal iris (:class:`lab.optics.iris.Iris`), ``None`` for a round or stylized aperture."""
+        from ..config import from_table
+        from ..optics.iris import Iris
+
+        if self.aperture is not None and not isinstance(self.aperture, dict):
+            raise UserError(f"aperture = {self.aperture!r}: write the iris as a table, e.g. aperture = "
+                            "{ blades = 6, rotation_deg = 0 }, a shape as { shape = \"star\" }, or remove "
+                            "it for a round aperture")
+        if self.aperture is None or "shape" in self.aperture:
+            return None
+        return from_table(Iris, self.aperture, "aperture")
+
+    def shaped(self) -> ShapedAperture | None:
+        """The stylized aperture (``aperture = { shape = ... }``), ``None`` otherwise."""
+        from ..config import from_table
+
+        if not isinstance(self.aperture, dict) or "shape" not in self.aperture:
+            return None
+        return from_table(ShapedAperture, self.aperture, "aperture")
+
+    def aperture_text(self) -> str:
+        """The aperture as the plan states it."""
+        iris, shaped = self.iris(), self.shaped()
+        if iris is not None:
+            return f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, rounding {iris.rounding:g})"
+        return "circle" if shaped is None else f"{shaped.shape} (stylized)"
+
+    def aperture_keys(self) -> dict:
+        """The ``aperture*`` keys of a PSF model's configuration for this aperture."""
+        iris, shaped = self.iris(), self.shaped()
+        if iris is not None:
+            return {"aperture": "polygon", "aperture_blades": iris.blades,
+                    "aperture_rotation_deg": float(iris.rotation_deg), "aperture_rounding": float(iris.rounding)}
+        return {"aperture": "circle"} if shaped is None else shaped.model_keys()
+
+    def aperture_params(self) -> dict | None:
+        """The aperture as the reference sensors and the stochastic input sample it: ``{"aperture":
+        registered shape name, **its parameters}`` (:func:`lab.optics.aperture.make_aperture`);
+        None for the round aperture."""
+        iris, shaped = self.iris(), self.shaped()
+        if shaped is not None:
+            return shaped.sensor_params()
+        if iris is not None:
+            return {"aperture": "polygon", "blades": iris.blades, "rotation_deg": iris.rotation_deg,
+                    "rounding": iris.rounding}
+        return None
+
+    def header_aperture(self) -> dict:
+        """``{"aperture": ...}`` for the ``splatlab.camera`` header (empty for the round aperture)."""
+        shape = self.iris() or self.shaped()
+        return {} if shape is None else {"aperture": shape.to_json()}
+
+    @staticmethod
+    def check_header_aperture(data: dict, source: str) -> None:
+        """A header's ``"aperture"`` (which the runtime cameras pass on unchecked): an iris or a shape."""
+        from ..config import from_table
+        from ..optics.iris import Iris
+
+        aperture = data.get("aperture")
+        if isinstance(aperture, dict) and "shape" in aperture:
+            if aperture.get("shape") not in SHAPES or set(aperture) - {"shape", "sha256"}:
+                raise UserError(f"{source} aperture = {aperture!r}: a stylized aperture is "
+                                "{\"shape\": \"star\" | \"heart\" | \"image\"} (an image with its \"sha256\")")
+        elif "aperture" in data:
+            from_table(Iris, data["aperture"], f"{source} aperture")

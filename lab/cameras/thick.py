@@ -40,6 +40,7 @@ from ..optics.glass import LINE_D_NM, get_glass
 from ..optics.lenses import LENSES, lens_names
 from ..plan import Step
 from .base import Camera, check_focus_keys, check_focus_pixels, register_camera, with_layered_pass
+from .shaped_aperture import ApertureTable
 
 WAVELENGTHS_NM = (650.0, 510.0, 475.0)   # R, G, B (LES10)
 FOCUS_WAVELENGTH_NM = LINE_D_NM          # focusing and the pinhole scale
@@ -49,13 +50,18 @@ THIN_KEYS = ("focal_length_mm", "f_number", "aperture_radius_mm", "fov_deg")
 
 
 @functools.lru_cache(maxsize=32)
-def _focused(surfaces: tuple, focus_distance_m: float, sensor_width_mm: float, width_px: int):
-    """The lens focused at ``focus_distance_m`` (a :class:`ThickLensCamera`; cached, it is immutable)."""
+def _focused(surfaces: tuple, focus_distance_m: float, sensor_width_mm: float, width_px: int,
+             aperture: str = "null"):
+    """The lens focused at ``focus_distance_m`` (a :class:`ThickLensCamera`; cached, it is immutable),
+    its stop shaped by ``aperture`` (the JSON of a camera's ``aperture_params``)."""
     from ..optics.lens_camera import ThickLensCamera
+    from ..optics.stop_shape import StopShape
     from ..optics.thick_lens import LensSystem
 
-    return ThickLensCamera.focused(LensSystem(surfaces), focus_distance_m, WAVELENGTHS_NM, FOCUS_WAVELENGTH_NM,
-                                   width_px, sensor_width_mm, FOCUS)
+    lens = LensSystem(surfaces)
+    shape = StopShape.from_params(json.loads(aperture), lens.surfaces[lens.stop].aperture_radius_mm)
+    return ThickLensCamera.focused(lens, focus_distance_m, WAVELENGTHS_NM, FOCUS_WAVELENGTH_NM,
+                                   width_px, sensor_width_mm, FOCUS, shape)
 
 
 def surface_rows(rows, key: str = "surfaces") -> tuple:
@@ -72,7 +78,7 @@ def surface_rows(rows, key: str = "surfaces") -> tuple:
 
 @register_camera("thick")
 @dataclass(frozen=True)
-class ThickCamera(Camera):
+class ThickCamera(ApertureTable, Camera):
     """A thick-lens camera (the look-at keys of :class:`lab.cameras.base.Camera` too).
 
     Parameters
@@ -92,6 +98,10 @@ class ThickCamera(Camera):
     sensor_tilt_deg : (float, float), default (0, 0)
         The sensor's tilt: its z grows by tan(tx) per mm of sensor x and tan(ty) per mm of sensor y
         (:class:`runtime_cl.camera.thick_lens.ThickLens`); by hand or from ``focus_points``.
+    aperture : dict, optional
+        The stop's shape instead of its round opening: a polygonal iris ``{ blades = 6,
+        rotation_deg = 0, rounding = 0 }`` or a stylized shape ``{ shape = "star" }``, its
+        circumradius the stop's semi-aperture (:class:`lab.optics.stop_shape.StopShape`).
     """
 
     runtime = ThickLens
@@ -101,15 +111,11 @@ class ThickCamera(Camera):
     focus_point: tuple[int, int] | None = None
     focus_points: tuple[tuple[int, int], ...] | None = None
     sensor_tilt_deg: tuple[float, float] = (0.0, 0.0)
+    aperture: typing.Any = None
 
     @classmethod
     def parse(cls, table: dict, where: str) -> "ThickCamera":
         check_focus_keys(table, where)
-        if "aperture" in table:   # the stop's shape is no thin-lens key that the surfaces replace
-            raise UserError(f"{where}: aperture = {table['aperture']!r}: a thick lens's stop is round (its "
-                            "semi-aperture is the radius-0 row of the surfaces); no PSF model or reference "
-                            "traces a shaped stop through a thick lens yet: remove the aperture, or set "
-                            "model = 'thin' for an iris or a shaped aperture")
         other = [k for k in THIN_KEYS if k in table]
         if other:
             raise UserError(f"{where}: {other}: a thick lens's focal length, f-number, field of view and aperture "
@@ -132,6 +138,10 @@ class ThickCamera(Camera):
             object.__setattr__(self, "sensor_tilt_deg", check_tilt(self.sensor_tilt_deg, ""))
         except UserError as exc:
             raise UserError(str(exc).strip()) from None
+        self.iris(), self.shaped()   # validates the aperture table
+        if self.aperture is not None and (self.sensor_tilt_deg != (0.0, 0.0) or self.focus_points is not None):
+            raise UserError(f"aperture = {self.aperture!r} with a tilted sensor: the tilted thick lens runs the "
+                            "layered pass alone, which traces the round stop; remove the aperture, or the tilt")
         if self.focus_distance_m is None:
             if self.focus_point is not None or self.focus_points is not None:   # resolved by lab.focus
                 return
@@ -163,7 +173,8 @@ class ThickCamera(Camera):
             raise UserError("focus_point(s): the focus is not resolved yet; load the scene with "
                             "lab.pipeline.load_scene_and_plan (lab.focus.resolve_focus)")
         try:
-            return _focused(self.rows(), self.focus_distance_m, self.sensor_width_mm, width_px)
+            return _focused(self.rows(), self.focus_distance_m, self.sensor_width_mm, width_px,
+                            json.dumps(self.aperture_params(), sort_keys=True))
         except UserError as exc:
             raise UserError(f"{key}, focus_distance_m = {self.focus_distance_m}: {exc}") from None
 
@@ -218,12 +229,13 @@ class ThickCamera(Camera):
                          focus_points=tuple(tuple(p) for p in pixels), sensor_tilt_deg=self.sensor_tilt_deg)
 
     def camera_json(self) -> dict:
-        return {**self.runtime_camera().to_json(), "shutter": self.header_shutter()}
+        return {**self.runtime_camera().to_json(), **self.header_aperture(), "shutter": self.header_shutter()}
 
     @classmethod
     def check_header(cls, data: dict, source: str) -> None:
         """The paraxial figures against the surfaces they were derived from (a header edited by
         hand, or written for another glass catalog, would place the pixels wrongly)."""
+        cls.check_header_aperture(data, source)
         rows = surface_rows(data["surfaces"], f"{source} surfaces")
         if data["focus"] != FOCUS:
             raise UserError(f"{source} focus = {data['focus']!r}: the lab's thick lens focuses {FOCUS!r}")
@@ -253,10 +265,15 @@ class ThickCamera(Camera):
         r = scene.render
         if self.runtime_camera().tilted:
             return self._plan_tilted(scene)
+        if self.aperture is not None and r.peel_layers is not None:
+            raise UserError(f"{scene.source} [camera] aperture = {self.aperture!r} with [render] peel_layers: the "
+                            "layered pass traces the thick lens's round stop; remove peel_layers (the spreadlet "
+                            "passes trace the shaped stop), or the aperture")
         nm = "/".join(f"{w:g}" for w in WAVELENGTHS_NM)
+        stop = "round stop" if self.aperture is None else f"{self.aperture_text()} stop"
         rule = {
             "dof": self._dof(),
-            "aperture": f"round stop (semi-aperture {self.stop_radius_mm():g} mm), vignetted by the lens's "
+            "aperture": f"{stop} (semi-aperture {self.stop_radius_mm():g} mm), vignetted by the lens's "
                         "openings (cat-eye off axis)",
             "effects": {"chromatic": f"sellmeier ({nm} nm)"},
             "psf_models": ("physical_lens",),
@@ -310,4 +327,7 @@ class ThickCamera(Camera):
         from ..reference.thick_lens_sensor import register
 
         out = {k: v for k, v in sensor.items() if k not in ("fov", "fov_axis")}
+        params = self.aperture_params()
+        if params is not None:   # the shaped stop (the header keeps an image's digest, not its path)
+            out["aperture"] = json.dumps(params)
         return dict(out, type=register(), camera=json.dumps(self.camera_json()), wavelength_nm=FOCUS_WAVELENGTH_NM)

@@ -30,21 +30,19 @@ from dataclasses import dataclass
 from runtime_cl.camera.focal_surface import scheimpflug_tilt
 from runtime_cl.camera.thin_lens import ThinLens
 
-from ..config import from_table
 from ..errors import UserError
 from ..focal_constraints import check_table, unresolved
 from ..motion import scene_moves
-from ..optics.iris import Iris
 from ..plan import NO_REFERENCE, Step
 from .base import Camera, check_focus_keys, check_focus_pixels, motion_plan, register_camera, with_layered_pass
-from .shaped_aperture import SHAPES, ShapedAperture
+from .shaped_aperture import ApertureTable
 
 DEPTH_LAYERS = 8   # global depth layers of the layered polygon passes (LSR18 section 6)
 
 
 @register_camera("thin")
 @dataclass(frozen=True)
-class ThinCamera(Camera):
+class ThinCamera(ApertureTable, Camera):
     """A thin-lens camera (the look-at keys of :class:`lab.cameras.base.Camera` too).
 
     Parameters
@@ -129,22 +127,6 @@ class ThinCamera(Camera):
         space, m): the lens equation (:func:`runtime_cl.camera.focal_surface.scheimpflug_tilt`)."""
         return scheimpflug_tilt(normal, offset, self.focal_length_mm / 1000.0)
 
-    def iris(self) -> Iris | None:
-        """The polygonal iris of ``aperture``, ``None`` for a round or stylized aperture."""
-        if self.aperture is not None and not isinstance(self.aperture, dict):
-            raise UserError(f"aperture = {self.aperture!r}: write the iris as a table, e.g. aperture = "
-                            "{ blades = 6, rotation_deg = 0 }, a shape as { shape = \"star\" }, or remove "
-                            "it for a round aperture")
-        if self.aperture is None or "shape" in self.aperture:
-            return None
-        return from_table(Iris, self.aperture, "aperture")
-
-    def shaped(self) -> ShapedAperture | None:
-        """The stylized aperture (``aperture = { shape = ... }``), ``None`` otherwise."""
-        if not isinstance(self.aperture, dict) or "shape" not in self.aperture:
-            return None
-        return from_table(ShapedAperture, self.aperture, "aperture")
-
     def runtime_camera(self) -> ThinLens:
         n = self.f_number
         if n is None:  # aperture radius a = f / (2 N)
@@ -165,23 +147,12 @@ class ThinCamera(Camera):
         return self.runtime_camera()
 
     def camera_json(self) -> dict:
-        data = self.runtime_camera().to_json()
-        shape = self.iris() or self.shaped()
-        if shape is not None:
-            data["aperture"] = shape.to_json()
-        data["shutter"] = self.header_shutter()
-        return data
+        return {**self.runtime_camera().to_json(), **self.header_aperture(), "shutter": self.header_shutter()}
 
     @classmethod
     def check_header(cls, data: dict, source: str) -> None:
         """The iris or the shape (``"aperture"``), which :meth:`ThinLens.from_json` passes on unchecked."""
-        aperture = data.get("aperture")
-        if isinstance(aperture, dict) and "shape" in aperture:
-            if aperture.get("shape") not in SHAPES or set(aperture) - {"shape", "sha256"}:
-                raise UserError(f"{source} aperture = {aperture!r}: a stylized aperture is "
-                                "{\"shape\": \"star\" | \"heart\" | \"image\"} (an image with its \"sha256\")")
-        elif "aperture" in data:
-            from_table(Iris, data["aperture"], f"{source} aperture")
+        cls.check_header_aperture(data, source)
 
     def plan(self, scene) -> dict:
         if scene.medium is not None:
@@ -207,7 +178,7 @@ class ThinCamera(Camera):
             if self.runtime_camera().tilted or self.focal_surface is not None:
                 raise UserError(f"{scene.source} [camera]: a tilted sensor or a focal_surface in a moving scene; the "
                                 "motion model traces an untilted lens: remove the velocities, or the tilt")
-            return motion_plan(scene, self._dof(), self._aperture_text())
+            return motion_plan(scene, self._dof(), self.aperture_text())
         if self.iris() is not None:
             return self._plan_iris(scene)
         if self.shaped() is not None:
@@ -253,7 +224,7 @@ class ThinCamera(Camera):
                                                          "layered input"))
         return {
             "dof": self._dof(),
-            "aperture": self._aperture_text(),
+            "aperture": self.aperture_text(),
             "psf_models": (),
             "references": (Step("mitsuba_polygon_lens", f"Mitsuba path trace through the thin lens with the "
                                                         f"{iris.blades}-blade iris (lab.reference.aperture_lens), "
@@ -268,7 +239,7 @@ class ThinCamera(Camera):
         shape, r = self.shaped(), scene.render
         return {
             "dof": self._dof(),
-            "aperture": self._aperture_text(),
+            "aperture": self.aperture_text(),
             "psf_models": ("stylized",),
             "references": (Step("mitsuba_aperture_lens", f"Mitsuba path trace through the thin lens with "
                                                          f"the {shape.shape} aperture (lab.reference."
@@ -278,32 +249,6 @@ class ThinCamera(Camera):
             "skipped": (Step("polygon passes", f"MHU21's kernels are polygons; a {shape.shape} aperture "
                                                "runs through the stylized database"),),
         }
-
-    def _aperture_text(self) -> str:
-        iris, shaped = self.iris(), self.shaped()
-        if iris is not None:
-            return f"polygon ({iris.blades} blades, rotation {iris.rotation_deg:g} deg, rounding {iris.rounding:g})"
-        return "circle" if shaped is None else f"{shaped.shape} (stylized)"
-
-    def aperture_keys(self) -> dict:
-        """The ``aperture*`` keys of a PSF model's configuration for this lens's aperture."""
-        iris, shaped = self.iris(), self.shaped()
-        if iris is not None:
-            return {"aperture": "polygon", "aperture_blades": iris.blades,
-                    "aperture_rotation_deg": float(iris.rotation_deg), "aperture_rounding": float(iris.rounding)}
-        return {"aperture": "circle"} if shaped is None else shaped.model_keys()
-
-    def aperture_params(self) -> dict | None:
-        """The lens's aperture as the reference sensor (:mod:`lab.reference.aperture_lens`) and the
-        stochastic input sample it: ``{"aperture": registered shape name, **its parameters}``
-        (:func:`lab.optics.aperture.make_aperture`); None for the round aperture."""
-        iris, shaped = self.iris(), self.shaped()
-        if shaped is not None:
-            return shaped.sensor_params()
-        if iris is not None:
-            return {"aperture": "polygon", "blades": iris.blades, "rotation_deg": iris.rotation_deg,
-                    "rounding": iris.rounding}
-        return None
 
     def mitsuba_sensor(self, sensor: dict) -> dict:
         """Mitsuba's ``thinlens`` (aperture radius f / 2N, planar focus distance), or with an iris

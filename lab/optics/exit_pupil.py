@@ -22,13 +22,19 @@ tabulated ones is the union of theirs, widened by two grid cells, in the frame t
 sensor point's azimuth. :meth:`ExitPupil.sample` and :meth:`ExitPupil.trace` are written once
 for numpy and Dr.Jit (the ``ops`` of :mod:`lab.optics.thick_lens`).
 
+Shaped stop. With an iris or a stylized stop (:class:`~lab.optics.stop_shape.StopShape`) the
+lens is no longer rotation symmetric: A depends on the sensor point's azimuth too, modulo the
+shape's turn period. It is tabulated over :data:`STOP_TURNS` azimuths of a period as well
+(bilinear, periodic in the azimuth) by tracing from (r, 0) through the stop turned back by the
+azimuth; the boxes stay the round opening's, which hold the shape's.
+
 Tilt-shift. A tilted sensor's point (sx, sy) lies gx sx + gy sy beyond the axial sensor plane; its
 rays start there and A is tabulated over five such shifts as well (linear between them), each box
 the union over them.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import drjit as dr
 import numpy as np
@@ -36,9 +42,12 @@ from drjit.llvm import Float, UInt32
 
 from lab.errors import UserError
 from lab.optics.lens_camera import ThickLensCamera
-from lab.optics.thick_lens import NUMPY, LensSystem, Ops
+from lab.optics.stop_shape import StopShape
+from lab.optics.thick_lens import DRJIT, NUMPY, LensSystem, Ops
 
-__all__ = ["ExitPupil"]
+__all__ = ["ExitPupil", "STOP_TURNS"]
+
+STOP_TURNS = 24   # tabulated azimuths per turn period of a shaped stop
 
 
 @dataclass(frozen=True)
@@ -67,6 +76,9 @@ class ExitPupil:
     slopes, shifts_mm, shift_area_mm2
         A tilted sensor's slopes (gx, gy), the shifts A is tabulated at and A per (shift, radius)
         (None untilted; ``area_mm2`` is the row at shift 0).
+    stop_shape, turn_area_mm2
+        A shaped stop and A per (azimuth, radius), the azimuths k P / STOP_TURNS of its period P
+        (None for the round stop).
     """
 
     reversed_lens: LensSystem
@@ -80,6 +92,8 @@ class ExitPupil:
     slopes: tuple = (0.0, 0.0)
     shifts_mm: np.ndarray = field(default_factory=lambda: np.zeros(1))
     shift_area_mm2: np.ndarray | None = None
+    stop_shape: StopShape | None = None
+    turn_area_mm2: np.ndarray | None = None
 
     @classmethod
     def build(cls, camera: ThickLensCamera, wavelength_nm: float, max_radius_mm: float, n_radii: int = 48,
@@ -149,8 +163,26 @@ class ExitPupil:
         margin = 2.0 * cell
         boxes = np.stack([np.minimum(box[:-1, 0], box[1:, 0]) - margin, np.maximum(box[:-1, 1], box[1:, 1]) + margin,
                           np.maximum(box[:-1, 2], box[1:, 2]) + margin], axis=1)
+        shape, turn_area = camera.stop_shape, None
+        if shape is not None:
+            if shift_mm > 0:
+                raise UserError("a shaped stop with a tilted sensor: the tilt-shift tables assume a round stop; "
+                                "remove the aperture, or the tilt")
+            turn_area = np.zeros((STOP_TURNS, n_radii))
+            shaped = replace(probe, stop_shape=shape)
+            sx, qxx, qyy = Float(np.repeat(radii, len(qx))), Float(np.tile(qx, n_radii)), Float(np.tile(qy, n_radii))
+            for k in range(STOP_TURNS):   # every radius at once, in Dr.Jit (the numpy loop took seconds)
+                back = -np.radians(shape.turn_period_deg) * k / STOP_TURNS
+                _, _, ok, cos4 = shaped._trace_shifted(sx, sx * 0.0, qxx, qyy, 0.0, DRJIT,
+                                                       turn=(float(np.cos(back)), float(np.sin(back))))
+                turn_area[k] = dr.select(ok, cos4, 0.0).numpy().reshape(n_radii, -1).astype(np.float64).sum(axis=1)
+            turn_area *= cell * cell
+            if not np.all(turn_area > 0):
+                r = radii[np.argwhere(turn_area <= 0)[0][1]]
+                raise UserError(f"no ray from the sensor {r:.3g} mm off axis gets through the lens's shaped stop: "
+                                "widen the stop, or use a smaller sensor_width_mm")
         return cls(probe.reversed_lens, probe.eta, last, camera.sensor_z_mm, plane_z, radii, area[len(shifts) // 2],
-                   boxes, tuple(float(g) for g in slopes), shifts, area if shift_mm > 0 else None)
+                   boxes, tuple(float(g) for g in slopes), shifts, area if shift_mm > 0 else None, shape, turn_area)
 
     def sample(self, sx, sy, u1, u2, ops: Ops = NUMPY):
         """Plane points for sensor points (sx, sy) from uniform numbers u1, u2 in [0, 1).
@@ -166,7 +198,20 @@ class ExitPupil:
         t = _clip(r * (1.0 / step), len(self.radii_mm) - 1.000001, ops)
         j = _floor(t, ops)
         f = t - _float(j, ops)
-        if self.shift_area_mm2 is None:
+        if self.turn_area_mm2 is not None:   # a shaped stop: A also linear in the azimuth (periodic)
+            n, turns = len(self.radii_mm), STOP_TURNS
+            period = np.radians(self.stop_shape.turn_period_deg)
+            az = np.arctan2(sy, sx) if ops is NUMPY else dr.atan2(sy, sx)
+            az = az * (1.0 / period)
+            az = (az - (np.floor(az) if ops is NUMPY else dr.floor(az))) * turns
+            az = _clip(az, turns - 1e-6, ops)
+            k = _floor(az, ops)
+            g = az - _float(k, ops)
+            k1 = ops.select(k + 1 < turns, k + 1, k * 0)
+            flat = self.turn_area_mm2.ravel()
+            a0, a1 = ((1.0 - g) * _gather(flat, k * n + jj, ops) + g * _gather(flat, k1 * n + jj, ops)
+                      for jj in (j, j + 1))
+        elif self.shift_area_mm2 is None:
             a0, a1 = _gather(self.area_mm2, j, ops), _gather(self.area_mm2, j + 1, ops)
         else:   # a tilted sensor: A also linear in the point's shift along the axis
             n, top = len(self.radii_mm), float(self.shifts_mm[-1])
@@ -197,15 +242,18 @@ class ExitPupil:
         shift = self.slopes[0] * sx + self.slopes[1] * sy if self.slopes != (0.0, 0.0) else 0.0
         return self._trace_shifted(sx, sy, qx, qy, shift, ops)
 
-    def _trace_shifted(self, sx, sy, qx, qy, shift, ops: Ops):
-        """:meth:`trace` from sensor points ``shift`` mm beyond the axial sensor plane."""
+    def _trace_shifted(self, sx, sy, qx, qy, shift, ops: Ops, turn=None):
+        """:meth:`trace` from sensor points ``shift`` mm beyond the axial sensor plane (a shaped
+        stop turned by the angle whose (cos, sin) is ``turn``)."""
         c = ops.const
         dz = c(self.sensor_z_mm - self.plane_z_mm) + shift
         vx, vy = qx - sx, qy - sy
         inv = 1.0 / ops.sqrt(vx * vx + vy * vy + dz * dz)
         cos = dz * inv
         o = (sx, sy, sx * 0.0 + c(self.last_vertex_mm - self.sensor_z_mm) - shift)   # reversed lens coordinates
-        (ox, oy, oz), (dx, dy, dz_out), ok = self.reversed_lens.trace(o, (vx * inv, vy * inv, cos), self.eta, ops)
+        mask = None if self.stop_shape is None else self.stop_shape.mask(turn)   # x, y as in the lens
+        (ox, oy, oz), (dx, dy, dz_out), ok = self.reversed_lens.trace(o, (vx * inv, vy * inv, cos), self.eta, ops,
+                                                                      stop_mask=mask)
         cos2 = cos * cos
         return (ox, oy, c(self.last_vertex_mm) - oz), (dx, dy, -dz_out), ok, cos2 * cos2
 

@@ -28,6 +28,7 @@ import numpy as np
 from drjit.llvm import Float, UInt32
 
 from lab.errors import UserError
+from lab.optics.stop_shape import StopShape
 from lab.optics.thick_lens import DRJIT, NUMPY, LensSystem
 
 __all__ = ["ThickLensCamera", "FOCUS_MODES", "best_focus_z_mm"]
@@ -93,6 +94,9 @@ class ThickLensCamera:
         straight ray when rays are drawn on the stop.
     front_z_mm : float
         The frontmost z of the lens: objects must lie in front of it.
+    stop_shape : StopShape, optional
+        A shaped stop (an iris, a star) inside the stop's round opening; None: the round opening.
+        Focusing ignores it (the sensor is where the round stop's smallest spot is).
     """
 
     lens: LensSystem
@@ -109,10 +113,12 @@ class ThickLensCamera:
     first_traced: int
     baffles: tuple
     front_z_mm: float
+    stop_shape: StopShape | None = None
 
     @classmethod
     def focused(cls, lens: LensSystem, focus_distance_m: float, wavelengths_nm, focus_wavelength_nm: float,
-                width_px: int, sensor_width_mm: float, focus: str = "best") -> "ThickLensCamera":
+                width_px: int, sensor_width_mm: float, focus: str = "best",
+                stop_shape: StopShape | None = None) -> "ThickLensCamera":
         """Place the sensor so the lens focuses at ``focus_distance_m`` from its entrance pupil.
 
         Parameters
@@ -130,6 +136,8 @@ class ThickLensCamera:
             Sensor width in mm.
         focus : {"best", "paraxial"}, default "best"
             Smallest RMS spot, or the paraxial image.
+        stop_shape : StopShape, optional
+            The stop's shape (see the attribute).
         """
         if focus not in FOCUS_MODES:
             raise UserError(f"focus = {focus!r}: use one of {list(FOCUS_MODES)}")
@@ -151,7 +159,7 @@ class ThickLensCamera:
             entry, baffles = (min(0.0, sag), first.aperture_radius_mm, abs(sag), 0), ()
         return cls(lens, tuple(float(w) for w in wavelengths_nm), eta, float(z), z_ep, r_ep,
                    lens.chief_scale_mm(z, focus_wavelength_nm), width_px / sensor_width_mm,
-                   *entry, baffles, min(0.0, sag))
+                   *entry, baffles, min(0.0, sag), stop_shape)
 
     @property
     def f_number(self) -> float:
@@ -184,7 +192,7 @@ class ThickLensCamera:
         inv = dr.rsqrt(dist2)
         return (vx + px, vy, c(Float, self.entry_z_mm)), (vx * inv, vy * inv, dz0 * inv), (vx, vy, dz0), keep
 
-    def trace_point(self, px, pz, u_r, u_phi, u_keep, eta, status: bool = False):
+    def trace_point(self, px, pz, u_r, u_phi, u_keep, eta, status: bool = False, stop_turn=None):
         """Light-trace rays from the object point (px, 0, pz) (mm) to the sensor (Dr.Jit).
 
         Parameters
@@ -197,6 +205,8 @@ class ThickLensCamera:
             Relative index at each surface per ray (:attr:`eta` selected by channel).
         status : bool, default False
             Also return the status code (:data:`lab.optics.thick_lens.STATUS_OK` etc.).
+        stop_turn : (Float, Float), optional
+            (cos, sin) of the angle a shaped stop is turned by, per ray (None: not turned).
 
         Returns
         -------
@@ -205,9 +215,17 @@ class ThickLensCamera:
             unblocked), the status (None unless asked) and the keep flag.
         """
         q, d, v, keep = self.draw_rays(px, pz, u_r, u_phi, u_keep)
-        out = self.lens.trace(q, d, eta, DRJIT, self.sensor_z_mm, status=status, first=self.first_traced)
+        mask = None if self.stop_shape is None else self.stop_shape.mask(stop_turn)
+        drawn_on_stop = self.first_traced > 0
+        out = self.lens.trace(q, d, eta, DRJIT, self.sensor_z_mm, status=status, first=self.first_traced,
+                              stop_mask=None if drawn_on_stop else mask)
         (sx, sy, _), _, ok = out[:3]
         code = out[3] if status else None
+        if drawn_on_stop and mask is not None:   # q lies on the stop's plane: test the shape there
+            open_ = mask(q[0], q[1])
+            if status:
+                code = dr.select(ok & ~open_, UInt32(1 + self.lens.stop), code)
+            ok = ok & open_
         for i, z, a in reversed(self.baffles):  # openings in front of the stop: the straight ray
             back = dr.opaque(Float, z - self.entry_z_mm) / v[2]
             bx, by = q[0] + back * v[0], q[1] + back * v[1]

@@ -244,7 +244,7 @@ class LensSystem:
         return tuple(a / b for a, b in zip(n[:-1], n[1:]))
 
     def trace(self, o, d, eta, ops: Ops = NUMPY, sensor_z_mm: float | None = None, status=False,
-              first: int = 0):
+              first: int = 0, stop_mask=None):
         """Trace rays through the surfaces by Snell's law, optionally to the sensor plane.
 
         Parameters
@@ -263,6 +263,9 @@ class LensSystem:
         first : int, default 0
             Start at this surface; the caller has dealt with the earlier ones (e.g. rays drawn on
             the stop's opening, baffles in front of it checked along the straight ray).
+        stop_mask : callable, optional
+            ``stop_mask(x, y)``: whether the stop plane is open at (x, y) mm inside its round
+            opening (a shaped stop, :meth:`lab.optics.stop_shape.StopShape.mask`).
 
         Returns
         -------
@@ -293,6 +296,8 @@ class LensSystem:
             px, py, pz = px + t * dx, py + t * dy, pz + t * dz
             a = ops.const(s.aperture_radius_mm)
             inside = hit & (px * px + py * py <= a * a)
+            if s.is_stop and stop_mask is not None:
+                inside = inside & stop_mask(px, py)
             if status:
                 code = ops.select(ok & ~inside, ops.status(1 + i, ox), code)
             ok = ok & inside

@@ -38,7 +38,8 @@ def register() -> str:
 
     Parameters of the plugin: ``camera`` (the ``splatlab.camera`` JSON of a thick lens, a
     string: :meth:`lab.cameras.thick.ThickCamera.camera_json`), ``wavelength_nm`` (the one
-    wavelength traced), ``to_world``, a film and a sampler.
+    wavelength traced), optionally ``aperture`` (the JSON of the camera's ``aperture_params``: a
+    shaped stop), ``to_world``, a film and a sampler.
     """
     mi = mitsuba()
     import drjit as dr
@@ -47,6 +48,7 @@ def register() -> str:
     from ..cameras.thick import FOCUS_WAVELENGTH_NM
     from ..optics.exit_pupil import ExitPupil
     from ..optics.lens_camera import ThickLensCamera
+    from ..optics.stop_shape import StopShape
     from ..optics.thick_lens import DRJIT, LensSystem
 
     class ThickLensSensor(mi.Sensor):
@@ -58,8 +60,11 @@ def register() -> str:
             self.size, self.crop_size, self.crop_offset = film.size(), film.crop_size(), film.crop_offset()
             width_mm = float(data["sensor_width_mm"])
             self.sensor_mm = (width_mm, width_mm * self.size[1] / self.size[0])
-            cam = ThickLensCamera.focused(LensSystem(data["surfaces"]), data["focus_distance_m"], (self.wavelength,),
-                                          FOCUS_WAVELENGTH_NM, int(self.size[0]), width_mm, data["focus"])
+            lens = LensSystem(data["surfaces"])
+            shape = StopShape.from_params(json.loads(props.get("aperture")) if "aperture" in props
+                                          else None, lens.surfaces[lens.stop].aperture_radius_mm)
+            cam = ThickLensCamera.focused(lens, data["focus_distance_m"], (self.wavelength,),
+                                          FOCUS_WAVELENGTH_NM, int(self.size[0]), width_mm, data["focus"], shape)
             self.pupil_z = cam.pupil_z_mm
             # tilt-shift: the sensor point (sx, sy) lies gx sx + gy sy beyond the axial sensor plane
             slopes = tuple(math.tan(math.radians(t)) for t in data.get("sensor_tilt_deg", (0.0, 0.0)))

@@ -168,18 +168,19 @@ class ThickLens:
 
     @classmethod
     def from_json(cls, data: dict, source: str = "camera") -> "ThickLens":
-        """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors."""
+        """Build from the ``splatlab.camera`` JSON; ``source`` names where it came from in errors. A
+        shaped stop (``aperture``) changes no figure of the runtime's; the database fingerprint checks it."""
         if data.get("lens") != cls.lens:
             raise InputError(f"{source}: lens = {data.get('lens')!r}, this runtime path needs {cls.lens!r}")
         known = {"lens", "surfaces", "focus", "shutter", "wavelengths_nm", "indices", "pupil_z_mm", "focus_points",
-                 "sensor_tilt_deg", *NUMBERS}
+                 "sensor_tilt_deg", "aperture", *NUMBERS}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InputError(f"{source}: unknown key(s) {unknown}; known keys are {sorted(known)}")
-        missing = sorted(known - {"shutter", "focus_points", "sensor_tilt_deg"} - set(data))
+        missing = sorted(known - {"shutter", "focus_points", "sensor_tilt_deg", "aperture"} - set(data))
         if missing:
             raise InputError(f"{source}: missing key(s) {missing} for a thick lens")
         try:
-            return cls(**{k: v for k, v in data.items() if k not in ("lens", "shutter")})
+            return cls(**{k: v for k, v in data.items() if k not in ("lens", "shutter", "aperture")})
         except InputError as exc:
             raise InputError(f"{source}: {exc}") from None

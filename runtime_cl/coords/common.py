@@ -146,3 +146,20 @@ def in_range(name: str, values: np.ndarray, db: SpreadletDatabase, dim: int, uni
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Radians (float64) reduced to [-pi, pi), as float32."""
     return (np.remainder(angle + math.pi, 2.0 * math.pi) - math.pi).astype(np.float32)
+
+
+def angle_bin(name: str, angle_deg: np.ndarray, db: SpreadletDatabase) -> tuple:
+    """A database whose last PSF coordinate is a binned angle (a motion direction or a pixel's
+    azimuth modulo a shaped aperture's turn period; :class:`~runtime_cl.psf.grid.NestedGrid`
+    ``bins``): (``angle_deg`` modulo the period as float32 inside its range [lo, lo + period];
+    the centre of its bin in degrees). Turning the bin's PSF by the angle minus that centre turns
+    it by a multiple of the period (which maps the aperture onto itself) plus the coordinate's
+    offset from the centre. The bin is found from the float32 coordinate exactly as
+    ``psf/psf_space.cl`` finds it, so a turn always belongs to the PSF drawn."""
+    grid = db.grid
+    lo, hi = grid.ranges[-1]
+    theta = in_range(name, np.remainder(angle_deg - lo, hi - lo) + lo, db, grid.ns - 1, "deg",
+                     lambda *_: REBUILD)   # never called: the remainder lies inside
+    s = (theta.astype(np.float64) - lo) / (hi - lo)
+    b = np.minimum(np.floor(s * grid.bins), grid.bins - 1)
+    return theta, lo + (b + 0.5) * (hi - lo) / grid.bins

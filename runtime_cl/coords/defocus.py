@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from runtime_cl.coords.common import (REBUILD, PsfCoords, as_motion, check_symmetries, expect_space, in_range,
-                            register, wrap_angle)
+from runtime_cl.coords.common import (REBUILD, PsfCoords, angle_bin, as_motion, check_symmetries, expect_space,
+                                      in_range, register, wrap_angle)
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.errors import InputError
 from runtime_cl.camera.thin_lens import ThinLens
@@ -119,7 +119,7 @@ def combined_coords(camera: ThinLens, depth, db: SpreadletDatabase, motion) -> P
         (``coc_sign``; exact for the capsule, whose motion segment is centred). A still pixel
         (length 0) is turned by the ``coc_sign`` part alone. A shaped aperture's database
         (``motion_angle``) adds the third coordinate and turns by atan2(Y, X) minus its bin's
-        centre instead (:func:`_motion_angle`).
+        centre instead (:func:`~runtime_cl.coords.common.angle_bin`).
     """
     binned = db.grid.bins > 0
     expect_space(db, "combined", COC + ("motion_px",) + (("motion_angle_deg",) if binned else ()))
@@ -134,23 +134,9 @@ def combined_coords(camera: ThinLens, depth, db: SpreadletDatabase, motion) -> P
     length32 = in_range("motion length", length, db, 1, "px", fix)
     phi = np.arctan2(m[..., 1], m[..., 0])
     if binned:
-        theta, centre = _motion_angle(np.degrees(phi), db)
+        theta, centre = angle_bin("motion angle", np.degrees(phi), db)
         return PsfCoords(np.stack([r, length32, theta], axis=-1),
                          wrap_angle(phi - np.radians(centre) + _behind_focus(coc)))
     reference = math.radians(float(db.params.get("config", {}).get("motion_direction_deg", 0.0)))
     return PsfCoords(np.stack([r, length32], axis=-1), wrap_angle(phi - reference + _behind_focus(coc)))
 
-
-def _motion_angle(phi_deg: np.ndarray, db: SpreadletDatabase) -> tuple:
-    """(the motion angle coordinate as float32: ``phi_deg`` modulo the period, inside the database's
-    range [lo, lo + period]; the centre of its bin in degrees). Turning the bin's PSF by phi minus
-    that centre turns it by a multiple of the period (which maps the aperture onto itself) plus
-    the coordinate's offset from the centre. The bin is found from the float32 coordinate exactly
-    as ``psf/psf_space.cl`` finds it, so the turn always belongs to the PSF drawn."""
-    grid = db.grid
-    lo, hi = grid.ranges[-1]
-    theta = in_range("motion angle", np.remainder(phi_deg - lo, hi - lo) + lo, db, grid.ns - 1, "deg",
-                     lambda *_: REBUILD)   # always inside: the remainder is
-    s = (theta.astype(np.float64) - lo) / (hi - lo)
-    b = np.minimum(np.floor(s * grid.bins), grid.bins - 1)
-    return theta, lo + (b + 0.5) * (hi - lo) / grid.bins

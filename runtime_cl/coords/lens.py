@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from runtime_cl.coords.common import (PsfCoords, as_depth, check_symmetries, expect_space, in_range, pixel_offsets, register,
-                            wrap_angle)
+from runtime_cl.coords.common import (PsfCoords, angle_bin, as_depth, check_symmetries, expect_space, in_range,
+                                      pixel_offsets, register, wrap_angle)
 from runtime_cl.psf.database import SpreadletDatabase
 from runtime_cl.errors import InputError
 
@@ -37,11 +37,13 @@ def physical_lens_coords(camera, depth, db: SpreadletDatabase, motion=None) -> P
     Returns
     -------
     PsfCoords
-        ``coords`` (depth, distance of the pixel centre from the image centre); ``angle`` the
-        pixel's azimuth about the image centre (counter-clockwise from image +x, y up).
+        ``coords`` (depth, distance of the pixel centre from the image centre, and for a shaped
+        stop the azimuth in degrees modulo its period); ``angle`` the pixel's azimuth about the
+        image centre (counter-clockwise from image +x, y up).
     """
-    expect_space(db, "physical_lens", ("depth_m", "eccentricity_px"))
-    check_symmetries(db, ("optical_axis",))
+    binned = db.grid.bins > 0   # a shaped stop: the pixel's azimuth modulo its period (symmetry stop_turn)
+    expect_space(db, "physical_lens", ("depth_m", "eccentricity_px") + (("stop_turn_deg",) if binned else ()))
+    check_symmetries(db, ("optical_axis", "stop_turn") if binned else ("optical_axis",))
     z = as_depth(depth)
     h, w = z.shape
     traced = db.params.get("config", {}).get("width_px")
@@ -60,7 +62,10 @@ def physical_lens_coords(camera, depth, db: SpreadletDatabase, motion=None) -> P
     ecc32 = in_range("eccentricity", ecc, db, 1, "px", lambda _, hi: "rebuild the database with "
                      f"max_eccentricity_px >= {float(np.ceil(hi))}")
     angle = np.arctan2(y, x) - OPTICAL_AXIS_REFERENCE_RAD
-    return PsfCoords(np.stack([depth32, ecc32], axis=-1), wrap_angle(angle))
+    coords = [depth32, ecc32]
+    if binned:
+        coords.append(angle_bin("stop turn", np.degrees(angle), db)[0])
+    return PsfCoords(np.stack(coords, axis=-1), wrap_angle(angle))
 
 
 @register("volume", attenuates=True)

@@ -37,17 +37,13 @@ from lab.optics.aperture import Aperture
 from lab.optics.motion import LinearMotion
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.models.base import PSFModel, register_model
-from lab.psf_tracing.models.common import (ApertureKeys, LensKeys, check_common, check_number,
-                                           whole_launches)
+from lab.psf_tracing.models.common import (ApertureKeys, LensKeys, binned_grid, check_angle_bins, check_common,
+                                           check_number, whole_launches)
 from lab.psf_tracing.models.simple_lens import PSF_MARGIN_PX
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import RayHits
-from runtime_cl.psf.grid import MAX_BINS, MAX_SAMPLES
 
 __all__ = ["Combined", "CombinedConfig", "min_combined_resolution"]
-
-
-DEFAULT_BIN_DEG = 10.0   # widest default motion-angle bin of a shaped aperture
 
 
 def min_combined_resolution(max_coc_px: float, max_motion_px: float, direction_deg: float | None = 0.0) -> int:
@@ -138,20 +134,10 @@ class CombinedConfig(LensKeys, ApertureKeys):
         check_common(self)
         LinearMotion(self.motion_direction_deg)
         period = self.check_aperture().turn_period_deg
-        if period == 0.0:
-            if self.angle_bins is not None:
-                raise UserError(f"angle_bins = {self.angle_bins!r}: a round aperture looks the same in every "
-                                "motion direction; remove the key")
-        else:
-            if self.motion_direction_deg != 0.0:
-                raise UserError(f"motion_direction_deg = {self.motion_direction_deg!r}: aperture = "
-                                f"{self.aperture!r} traces every motion direction (angle_bins); remove the key")
-            if self.angle_bins is None:
-                object.__setattr__(self, "angle_bins", math.ceil(period / DEFAULT_BIN_DEG - 1e-9))
-            check_number("angle_bins", self.angle_bins, integer=True)
-            if self.angle_bins > MAX_BINS or self.samples * self.angle_bins > MAX_SAMPLES:
-                raise UserError(f"angle_bins = {self.angle_bins}: at most {MAX_BINS}, and samples x angle_bins "
-                                f"at most {MAX_SAMPLES} (each is a traced PSF); use fewer")
+        check_angle_bins(self, period)
+        if period and self.motion_direction_deg != 0.0:
+            raise UserError(f"motion_direction_deg = {self.motion_direction_deg!r}: aperture = {self.aperture!r} "
+                            "traces every motion direction (angle_bins); remove the key")
         direction = None if self.angle_bins else self.motion_direction_deg
         need = min_combined_resolution(self.max_coc_px, self.max_motion_px, direction)
         if self.psf_resolution < need:
@@ -191,14 +177,9 @@ class Combined(PSFModel):
     @cached_property
     def grid(self) -> NestedGrid:
         c = self.config
-        ranges, names = ((0.0, c.max_coc_px), (0.0, c.max_motion_px)), ("coc_radius_px", "motion_px")
-        if not c.angle_bins:
-            return NestedGrid.for_samples(c.samples, c.beta, ranges, names)
-        period = self.aperture.turn_period_deg
-        half = 0.5 * period / c.angle_bins   # bins centred on 0, w, 2w, ...
-        return NestedGrid.for_samples(c.samples * c.angle_bins, tuple(c.beta) + (1.0,),
-                                      ranges + ((-half, period - half),), names + ("motion_angle_deg",),
-                                      bins=c.angle_bins)
+        return binned_grid(c.samples, c.beta, ((0.0, c.max_coc_px), (0.0, c.max_motion_px)),
+                           ("coc_radius_px", "motion_px"), c.angle_bins, self.aperture.turn_period_deg,
+                           "motion_angle_deg")
 
     def rays_for_cell(self, cell: int) -> int:
         """max(rays_per_psf, rays_per_pixel * capsule area at the cell's largest r and l)."""

@@ -27,6 +27,11 @@ runtime must do with them:
     image: only pixels on the image's +x side of the centre are traced (reference direction 0),
     indexed by their distance from the centre (eccentricity). A pixel at azimuth phi about the
     image centre (counter-clockwise from image +x, y up) is drawn with the PSF rotated by phi.
+``"stop_turn"``
+    With ``"optical_axis"``, a shaped stop: the PSF space's last coordinate is the pixel's
+    azimuth phi in degrees modulo the stop's turn period (uniform bins centred on multiples of
+    their width), traced as the point at azimuth 0 seen through the stop turned by -phi; the
+    pixel is drawn turned by phi, as ``"optical_axis"`` says.
 
 Rotations turn the PSF counter-clockwise as the image is viewed; the runtime
 (:mod:`runtime_cl.coords.maps`, ``Renderer.render(angle=...)``) takes the angle in radians.
@@ -41,12 +46,13 @@ from lab.errors import UserError
 from lab.optics.aperture import Aperture, get_aperture, make_aperture
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.tracer import MAX_RAYS_PER_LAUNCH
-from runtime_cl.psf.grid import MAX_SAMPLES
+from runtime_cl.psf.grid import MAX_BINS, MAX_SAMPLES, NestedGrid
 
 __all__ = ["ApertureKeys", "BasisKeys", "LensKeys", "check_number", "check_common", "whole_launches",
-           "SYMMETRY_TAGS"]
+           "SYMMETRY_TAGS", "check_angle_bins", "binned_grid"]
 
-SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "motion_angle", "optical_axis")
+SYMMETRY_TAGS = ("rotation", "coc_sign", "motion_direction", "motion_angle", "optical_axis", "stop_turn")
+DEFAULT_BIN_DEG = 10.0   # widest default angle bin of a shaped aperture
 
 # config key -> the aperture class's parameter
 _APERTURE_PARAMS = {"aperture_blades": "blades", "aperture_rotation_deg": "rotation_deg",
@@ -90,6 +96,34 @@ def check_common(cfg) -> None:
     check_number("seed", cfg.seed, integer=True, zero_ok=True)
     if cfg.rays_per_launch > MAX_RAYS_PER_LAUNCH:
         raise UserError(f"rays_per_launch = {cfg.rays_per_launch}: at most {MAX_RAYS_PER_LAUNCH}")
+
+
+def check_angle_bins(cfg, period_deg: float) -> None:
+    """A config's ``angle_bins`` for an aperture of turn period ``period_deg``: none for a shape
+    that looks the same at every turn (period 0), else by default bins of at most 10 degrees,
+    an integer in [1, MAX_BINS] with samples x angle_bins traced PSFs at most MAX_SAMPLES."""
+    if period_deg == 0.0:
+        if cfg.angle_bins is not None:
+            raise UserError(f"angle_bins = {cfg.angle_bins!r}: a round aperture looks the same at every turn; "
+                            "remove the key")
+        return
+    if cfg.angle_bins is None:
+        object.__setattr__(cfg, "angle_bins", math.ceil(period_deg / DEFAULT_BIN_DEG - 1e-9))
+    check_number("angle_bins", cfg.angle_bins, integer=True)
+    if cfg.angle_bins > MAX_BINS or cfg.samples * cfg.angle_bins > MAX_SAMPLES:
+        raise UserError(f"angle_bins = {cfg.angle_bins}: at most {MAX_BINS}, and samples x angle_bins at most "
+                        f"{MAX_SAMPLES} (each is a traced PSF); use fewer")
+
+
+def binned_grid(samples: int, beta, ranges, names, bins: int, period_deg: float, name: str) -> NestedGrid:
+    """The nested grid of ``samples`` cells per bin, plus the uniform angle ``name`` in ``bins``
+    bins of one turn period, centred on 0, w, 2w, ... (w = period / bins); without bins the
+    nested grid alone."""
+    if not bins:
+        return NestedGrid.for_samples(samples, beta, ranges, names)
+    half = 0.5 * period_deg / bins
+    return NestedGrid.for_samples(samples * bins, tuple(beta) + (1.0,), tuple(ranges) + ((-half, period_deg - half),),
+                                  tuple(names) + (name,), bins=bins)
 
 
 def whole_launches(n: int, rays_per_launch: int) -> int:

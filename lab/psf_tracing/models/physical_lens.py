@@ -19,6 +19,14 @@ Symmetry ``optical_axis``: the lens is rotation symmetric, so only points right 
 centre (image +x, ``reference_direction_deg`` = 0) are traced; a runtime draws a pixel at
 azimuth phi (counter-clockwise from image +x, y up, as ``motion_direction``) about the image
 centre with the stored PSF rotated by phi, and looks it up by its distance from the centre.
+
+A shaped stop (``aperture*`` keys: an iris, a star) breaks that symmetry only through the stop:
+turning the whole lens about its axis by phi maps the point at azimuth 0 seen through the stop
+turned by -phi onto the pixel at phi seen through the stop. So a third, uniform coordinate
+(symmetry ``stop_turn``) holds phi modulo the stop's turn period P in ``angle_bins`` bins; a cell
+traces the point at azimuth 0 through the stop turned by minus an angle drawn over its bin, and
+the runtime turns the PSF by phi as before. The stop's orientation is then off by at most half a
+bin; a turn by a multiple of P maps the stop onto itself.
 """
 from __future__ import annotations
 
@@ -32,7 +40,7 @@ from drjit.llvm import Array2f, Float, UInt32
 from lab.errors import UserError
 from lab.optics.thick_lens import STATUS_OK
 from lab.psf_tracing.models.base import PSFModel, register_model
-from lab.psf_tracing.models.common import whole_launches
+from lab.psf_tracing.models.common import binned_grid, whole_launches
 from lab.psf_tracing.models.physical_lens_config import PhysicalLensConfig
 from lab.psf_tracing.space import NestedGrid
 from lab.psf_tracing.tracer import RayHits, lane_rng, trace_psf
@@ -47,7 +55,6 @@ class PhysicalLens(PSFModel):
     """Thick spherical lens PSFs over (depth, eccentricity), RGB (LSR18's PhysicalLens)."""
 
     Config = PhysicalLensConfig
-    symmetries = ("optical_axis",)
     channels = 3
     # A lens's caustics are thin rims, which TAU's 0.5-1 px blur at 2048 rays per pixel softened:
     # rain at 256^2 scored spreadlets 0.942 against Splat's 0.951 (Splat of the PSFs so blurred:
@@ -60,11 +67,16 @@ class PhysicalLens(PSFModel):
         self.camera = config.camera
         self._resolution_ok = False
 
+    @property
+    def symmetries(self) -> tuple:
+        return ("optical_axis", "stop_turn") if self.config.angle_bins else ("optical_axis",)
+
     @cached_property
     def grid(self) -> NestedGrid:
         c = self.config
-        return NestedGrid.for_samples(c.samples, c.beta, ((c.near_m, c.far_m), (0.0, c.max_eccentricity)),
-                                      ("depth_m", "eccentricity_px"))
+        period = self.camera.stop_shape.turn_period_deg if c.angle_bins else 0.0
+        return binned_grid(c.samples, c.beta, ((c.near_m, c.far_m), (0.0, c.max_eccentricity)),
+                           ("depth_m", "eccentricity_px"), c.angle_bins, period, "stop_turn_deg")
 
     def fingerprint(self) -> dict:
         """What a ``"thick"`` header (:mod:`runtime_cl.camera.thick_lens`) must say of the traced
@@ -88,7 +100,11 @@ class PhysicalLens(PSFModel):
         u = rng.next_float32() * float(self.channels)
         ch = dr.minimum(UInt32(u), self.channels - 1)
         eta = [self._eta(ch, i) for i in range(len(cam.lens))]
-        sx, sy, ok, code, keep = cam.trace_point(px, pz, u_r, u_phi, u - Float(ch), eta, status)
+        turn = None
+        if self.config.angle_bins:   # the pixel at azimuth phi: the stop turned by -phi
+            s, co = dr.sincos(dr.deg2rad(coords[2]))
+            turn = (co, -s)
+        sx, sy, ok, code, keep = cam.trace_point(px, pz, u_r, u_phi, u - Float(ch), eta, status, turn)
         centre = -cam.chief_scale_mm * tan_f                         # pinhole image of the point
         k = c(Float, cam.px_per_mm)
         offset = Array2f(-k * (sx - centre), k * sy)                  # image (col right, row down)
@@ -105,7 +121,8 @@ class PhysicalLens(PSFModel):
         return e
 
     def rays(self, coords: list, rng) -> RayHits:
-        """Per ray: (depth m, eccentricity px) -> object point -> lens -> sensor, image pixels."""
+        """Per ray: (depth m, eccentricity px[, stop turn deg]) -> object point -> lens -> sensor,
+        image pixels."""
         offset, active, ch, _, _ = self._trace(coords, rng)
         return RayHits(offset, active=active, channel=ch)
 
@@ -134,7 +151,8 @@ class PhysicalLens(PSFModel):
         n, stop = len(self.camera.lens), self.camera.lens.stop
         drawn_on_stop = self.camera.first_traced > 0
         entrance = 0 if drawn_on_stop else int(hist[1])
-        stopped = 0 if drawn_on_stop or stop == 0 else int(hist[1 + stop])
+        shaped = self.camera.stop_shape is not None   # its shape stops rays drawn on the round opening
+        stopped = 0 if (drawn_on_stop and not shaped) or stop == 0 else int(hist[1 + stop])
         vignetted = int(hist[1:1 + n].sum()) - entrance - stopped
         tir = int(hist[1 + n:2 + 2 * n].sum())
         reached = int(hist[STATUS_OK])
@@ -151,7 +169,8 @@ class PhysicalLens(PSFModel):
         reach = 0
         for depth in (c.near_m, c.far_m, min(max(c.focus_distance_m, c.near_m), c.far_m)):
             for ecc in (0.0, 0.5 * c.max_eccentricity, c.max_eccentricity):
-                t = trace_psf(self.rays, (depth, ecc), (depth, ecc), big, n_rays, c.seed, channels=3)
+                point = (depth, ecc) + ((0.0,) if c.angle_bins else ())   # the stop unturned
+                t = trace_psf(self.rays, point, point, big, n_rays, c.seed, channels=3)
                 if t.n_outside:
                     raise UserError(f"physical_lens: the PSF at depth {depth} m, eccentricity {ecc} px "
                                     f"is wider than {big} px; check the lens, near_m and far_m")

@@ -10,7 +10,8 @@ from lab.errors import UserError
 from lab.optics.lens_camera import FOCUS_MODES, ThickLensCamera
 from lab.optics.lenses import LENSES
 from lab.optics.thick_lens import LensSystem
-from lab.psf_tracing.models.common import check_common, check_number
+from lab.optics.stop_shape import StopShape
+from lab.psf_tracing.models.common import ApertureKeys, check_angle_bins, check_common, check_number
 
 __all__ = ["PhysicalLensConfig", "DEFAULT_SURFACES"]
 
@@ -20,7 +21,7 @@ DEFAULT_SURFACES = LENSES["singlet"]
 
 
 @dataclass(frozen=True)
-class PhysicalLensConfig:
+class PhysicalLensConfig(ApertureKeys):
     """Settings of the PhysicalLens model.
 
     Parameters
@@ -63,6 +64,13 @@ class PhysicalLensConfig:
         Relative spreadlet density for the sparsifier (> 0).
     seed : int, default 0
         Random seed (>= 0); same seed, same PSFs bitwise.
+    angle_bins : int, optional
+        A shaped stop only: bins of the pixel's azimuth modulo the stop's turn period (symmetry
+        ``stop_turn``); default: bins of at most 10 degrees. ``samples`` PSFs are traced per bin.
+
+    The ``aperture*`` keys (:class:`~lab.psf_tracing.models.common.ApertureKeys`) shape the stop:
+    an iris or a stylized shape of circumradius the stop's semi-aperture
+    (:class:`lab.optics.stop_shape.StopShape`); default the round opening.
     """
 
     surfaces: tuple[tuple[float, float, str, float], ...] = DEFAULT_SURFACES
@@ -84,9 +92,11 @@ class PhysicalLensConfig:
     rays_per_launch: int = 2 ** 22
     density: float = 1.0
     seed: int = 0
+    angle_bins: int | None = None
 
     def __post_init__(self):
         check_common(self)
+        check_angle_bins(self, self.check_aperture().turn_period_deg)
         for name in ("focus_distance_m", "near_m", "far_m", "sensor_width_mm", "sensor_height_mm",
                      "focus_wavelength_nm"):
             check_number(name, getattr(self, name))
@@ -136,5 +146,9 @@ class PhysicalLensConfig:
     @cached_property
     def camera(self) -> ThickLensCamera:
         """The lens focused at ``focus_distance_m`` with this sensor (UserError if it cannot focus)."""
-        return ThickLensCamera.focused(LensSystem(self.surfaces), self.focus_distance_m, self.wavelengths_nm,
-                                       self.focus_wavelength_nm, self.width_px, self.sensor_width_mm, self.focus)
+        lens = LensSystem(self.surfaces)
+        shape = None
+        if self.aperture != "circle":
+            shape = StopShape(self.build_aperture(), lens.surfaces[lens.stop].aperture_radius_mm)
+        return ThickLensCamera.focused(lens, self.focus_distance_m, self.wavelengths_nm, self.focus_wavelength_nm,
+                                       self.width_px, self.sensor_width_mm, self.focus, shape)

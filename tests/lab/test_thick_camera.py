@@ -27,9 +27,9 @@ BY_ROWS = {k: v for k, v in SINGLET.items() if k != "lens"} | {"surfaces": ROWS}
 BLIND = [[math.inf, 40.0, "air", 2.0], [0, 10.0, "air", 8.9], [50, 8, "N-BK7", 12], [-50, 0, "air", 12]]
 
 
-def scene(camera, psf=None, resolution=(32, 24)):
+def scene(camera, psf=None, resolution=(32, 24), render=None):
     return parse_scene({"scene": {"name": "k", "resolution": list(resolution)}, "camera": camera,
-                        "render": {"reference_spp": 16, "input_spp": 4},
+                        "render": {"reference_spp": 16, "input_spp": 4, **(render or {})},
                         "emitters": [{"type": "constant", "radiance": [1, 1, 1]}], "psf": psf or {}}, "k.toml")
 
 
@@ -89,7 +89,9 @@ def test_a_header_that_disagrees_with_its_surfaces_is_refused(key, value, said):
      ["surfaces[3] = [1, 2]", "[radius_mm, thickness_mm, glass, semi_aperture_mm]"]),
     ({"focus_distance_m": 0.03}, ["lens = 'singlet', focus_distance_m = 0.03", "cannot focus"]),
     ({"f_number": 2.0}, ["['f_number']", "follow from its surfaces", "model = 'thin'"]),
-    ({"aperture": {"blades": 7}}, ["aperture = {'blades': 7}", "stop is round", "model = 'thin'"]),
+    ({"aperture": {"blades": 2}}, ["blades = 2", "3 to 64"]),
+    ({"aperture": {"shape": "moon"}}, ["shape = 'moon'", "star"]),
+    ({"aperture": {"blades": 7}, "sensor_tilt_deg": [2.0, 0.0]}, ["tilted sensor", "round stop"]),
     ({"focus_distance_m": None}, ["needs focus_distance_m"]),
 ])
 def test_bad_prescriptions_name_the_key_and_the_fix(change, needles):
@@ -100,6 +102,23 @@ def test_bad_prescriptions_name_the_key_and_the_fix(change, needles):
     assert msg.startswith("k.toml [camera]: "), msg
     for needle in needles:
         assert needle in msg, msg
+
+
+@pytest.mark.parametrize("aperture, says, keys", [
+    ({"blades": 7}, "polygon (7 blades", {"aperture": "polygon", "aperture_blades": 7}),
+    ({"shape": "star"}, "star (stylized)", {"aperture": "star"}),
+])
+def test_a_shaped_stop_is_planned_into_the_physical_lens_database_and_the_header(aperture, says, keys):
+    s = scene(dict(SINGLET, aperture=aperture))
+    plan = make_plan(s)
+    assert plan.psf_models == ("physical_lens",) and plan.effects["aperture"].startswith(says)
+    assert keys.items() <= s.camera.aperture_keys().items()
+    header = s.camera.camera_json()
+    assert header["aperture"] == s.camera.header_aperture()["aperture"]
+    validate_camera(header, "h.exr")      # the runtime twin and the lab both read it back
+    assert s.camera.optics().stop_shape.turn_period_deg == (360 / 7 if "blades" in aperture else 72.0)
+    with pytest.raises(UserError, match="peel_layers"):
+        make_plan(scene(dict(SINGLET, aperture=aperture), render={"peel_layers": 2}))
 
 
 def test_a_lens_blind_at_the_image_corners_is_refused_by_the_plan():

@@ -63,7 +63,9 @@ def test_registered_with_lsr18_defaults():
     ({"focus": "sharpest"}, "focus = 'sharpest'"),
     ({"surfaces": [[0.0, 10.0, "air"]]}, "must have 4 entries"),
     ({"surfaces": [[0.0, 10.0, "air", 8.9], [50.0, 8.0, "N-BK7", 12.0]]}, "last surface's glass"),
-    ({"aperture": "circle"}, "unknown key"),
+    ({"aperture": "polygon", "aperture_blades": 2}, "aperture_blades = 2"),
+    ({"angle_bins": 3}, "round aperture looks the same"),
+    ({"aperture": "star", "angle_bins": 1.5}, "angle_bins = 1.5"),
 ])
 def test_bad_configuration_is_refused_before_tracing(table, match):
     with pytest.raises(UserError, match=match):

@@ -77,13 +77,19 @@ def test_every_model_lists_documented_symmetries_the_runtime_maps():
 
     for name in model_names():
         tags = get_model(name).symmetries
-        if isinstance(tags, property):  # simple_lens: by aperture, checked above
+        if isinstance(tags, property):  # by aperture: simple_lens checked above, the others below
             continue
         assert set(tags) <= set(SYMMETRY_TAGS), name
         # the far field is drawn by FFT beside its volume database (runtime_cl.psf.far_field), never
         # splatted on its own: no pass may take it for a model with coordinates
         assert (name in COORDINATE_MAPS) != (name == FAR_FIELD), name
-    assert get_model("physical_lens").symmetries == ("optical_axis",)
+    lens = {"psf_resolution": 31, "samples": 4}
+    assert load_model("physical_lens", lens).symmetries == ("optical_axis",)
+    assert load_model("physical_lens", dict(lens, aperture="star")).symmetries == ("optical_axis", "stop_turn")
+    moving = {"max_coc_px": 4.0, "max_motion_px": 4.0, "psf_resolution": 31}
+    assert load_model("combined", moving).symmetries == ("motion_direction", "coc_sign")
+    assert load_model("combined", dict(moving, aperture="heart")).symmetries == ("motion_angle", "coc_sign")
+    assert {"stop_turn", "motion_angle"} <= set(SYMMETRY_TAGS)
 
 
 @pytest.mark.parametrize("table, match", [

@@ -154,6 +154,9 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
         its ``rgb`` is meant (a box's walls are shapes too); never the runtime's input (its volume
         PSFs add the medium).
     """
+    if scene.camera.model == "thick" and scene.camera.aperture is not None:
+        raise UserError(f"{scene.source} [camera] aperture = {scene.camera.aperture!r}: a stochastic input re-traces "
+                        "the thick lens's round stop (runtime_cl.stochastic.thick); remove the aperture for it")
     if isinstance(shading_spp, bool) or not isinstance(shading_spp, int) or not 1 <= shading_spp <= 4096:
         raise UserError(f"shading_spp = {shading_spp!r}: give an integer in [1, 4096] (paths per camera ray)")
     mi = mitsuba()

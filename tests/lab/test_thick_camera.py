@@ -119,6 +119,10 @@ def test_a_shaped_stop_is_planned_into_the_physical_lens_database_and_the_header
     assert s.camera.optics().stop_shape.turn_period_deg == (360 / 7 if "blades" in aperture else 72.0)
     with pytest.raises(UserError, match="peel_layers"):
         make_plan(scene(dict(SINGLET, aperture=aperture), render={"peel_layers": 2}))
+    from lab.reference.stochastic import trace_samples
+
+    with pytest.raises(UserError, match="stochastic input re-traces the thick lens's round stop"):
+        trace_samples(s)
 
 
 def test_a_lens_blind_at_the_image_corners_is_refused_by_the_plan():

@@ -36,6 +36,11 @@ SETUPS = {
     "volume": (runtime_cl.ThinLens(50.0, 2.0, 2.0, 36.0), (0.5, 4.5),
                {"width_px": W, "samples": 10, "psf_resolution": 63, **_RAYS}),
 }
+# Shaped apertures: a uniform angle coordinate (motion angle, stop turn) on top of the nested grid.
+SETUPS["combined+iris"] = SETUPS["combined"][:2] + (dict(SETUPS["combined"][2], samples=6, aperture="polygon",
+                                                          aperture_blades=5, angle_bins=3),)
+SETUPS["physical_lens+star"] = SETUPS["physical_lens"][:2] + (dict(SETUPS["physical_lens"][2], samples=5,
+                                                                    aperture="star", angle_bins=2),)
 
 
 def _scene(depths, width, seed=0):
@@ -59,6 +64,7 @@ FLOOR = 0.995
 
 def _check(name, cache):
     camera, depths, extra = SETUPS[name]
+    name = name.split("+")[0]
     model = load_model(name, extra)
     db = runtime_cl.load_database(precompute(model, progress=False).path, expect_model=name)
     colour, depth, motion = _scene(depths, db.params["config"].get("width_px", W))
@@ -78,12 +84,12 @@ def _check(name, cache):
     assert score >= 0.9999, (name, "splat", score)
 
 
-@pytest.mark.parametrize("name", ["simple_lens", "combined", "stylized"])
+@pytest.mark.parametrize("name", ["simple_lens", "combined", "stylized", "combined+iris"])
 def test_thin_lens_models_render_like_their_dense_psfs(name, cache):
     _check(name, cache)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["physical_lens", "volume"])
+@pytest.mark.parametrize("name", ["physical_lens", "volume", "physical_lens+star"])
 def test_rgb_models_render_like_their_dense_psfs(name, cache):
     _check(name, cache)

@@ -157,4 +157,4 @@ def test_a_moving_scene_through_an_iris_sweeps_the_hexagon(tmp_path, monkeypatch
     assert db["config"]["angle_bins"] == 6 and db["symmetries"] == ["motion_angle", "coc_sign"]
     methods = report["methods"]
     assert abs(methods["spreadlets"]["ssim"] - methods["splat"]["ssim"]) < 0.02
-    assert methods["spreadlets"]["ssim"] > 0.68      # 0.717 measured against the 256-spp reference
+    assert methods["spreadlets"]["ssim"] > 0.68      # 0.718 measured against the 256-spp reference (floor 0.75)

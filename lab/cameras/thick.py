@@ -7,7 +7,10 @@
   point at that distance has the smallest spot (:class:`lab.optics.lens_camera.ThickLensCamera`).
   Tilt-shift: ``focus_points = [[x, y], ...]`` (>= 3) tilt the sensor to focus their least-squares
   plane (the tilt traced through the lens, :mod:`lab.optics.tilt`), or ``sensor_tilt_deg`` by hand;
-  a tilted sensor runs the layered pass only, against the tilted Mitsuba sensor.
+  a tilted sensor runs the layered pass only, against the tilted Mitsuba sensor. ``aperture =
+  { blades = 6 }`` or ``{ shape = "star" }`` shapes the stop (:mod:`lab.optics.stop_shape`): the
+  spreadlet passes and the reference trace it; the layered pass, a stochastic input and a tilted
+  sensor know the round stop only, and refuse it.
   ``position`` is the entrance pupil's centre: depths are measured from it, and the labelled
   pixels are a pinhole's there with the paraxial chief-ray scale.
 - Runtime twin: :class:`runtime_cl.camera.thick_lens.ThickLens`.

@@ -32,17 +32,17 @@ def _executor(args):
     return Executor(args.workers, args.scheduler, getattr(args, "threads", None))
 
 
-def _scene_models(scene_path, executor) -> list:
+def _scene_models(scene_path) -> list:
     """The configured models a scene's plan needs (renders its labelled-pixel input for the CoC
-    range, and its reference where ``executor`` says)."""
-    from .pipeline import inputs_and_reference, load_scene_and_plan
+    and motion ranges; not its reference, which only `splatlab reference|report` need)."""
+    from .pipeline import input_only, load_scene_and_plan
     from .psf_settings import model_table
     from .psf_tracing.models import load_model
 
     scene, plan = load_scene_and_plan(scene_path)
     if not plan.psf_models:
         return []
-    image, _, _ = inputs_and_reference(scene, plan, executor=executor)
+    image = input_only(scene)
     return [load_model(name, model_table(scene, name, image), f"{scene.source} [psf.{name}]")
             for name in plan.psf_models]
 
@@ -51,7 +51,7 @@ def cmd_precompute(args) -> int:
     from .precompute import precompute
     from .precompute.target import load_target_model, resolve_target
 
-    executor = _executor(args)
+    _executor(args)   # bad --workers / --scheduler / --threads: exit 2 before the input renders
     if args.out is not None:
         check_output(args.out, "--out", suffix=".spdb")
     if args.atlas is not None:
@@ -63,8 +63,7 @@ def cmd_precompute(args) -> int:
         if args.sets:
             raise UserError(f"--set with scene {target.path}: --set configures a model name; edit the "
                             "scene's [psf.<model>] table instead")
-        with executor:
-            models = _scene_models(target.path, executor)
+        models = _scene_models(target.path)
         if not models:
             print(f"{target.path}: the plan needs no PSF database (see `splatlab plan {target.path}`)")
             return 0

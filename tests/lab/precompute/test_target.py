@@ -68,3 +68,13 @@ def test_bad_input_exits_2_before_tracing(argv, needles, cache, capsys):
     for needle in needles:
         assert needle in err, (needle, err)
     assert not Path(cache).exists()  # nothing traced, rendered or cached
+
+
+def test_a_scene_target_renders_its_input_and_not_its_reference(cache, capsys):
+    """`splatlab precompute SCENE` needs the scene's labelled-pixel input (its CoC range); the
+    reference is for `splatlab reference|report` (whirl_iris's took 11 minutes)."""
+    tiny = SCENES / "tiny.toml"
+    assert main(["precompute", str(tiny), "--quiet"]) == 0
+    assert [s for s in capsys.readouterr().out.splitlines() if s.startswith("simple_lens:")]
+    rendered = sorted(p.name for p in Path(cache).glob("renders/*/*"))
+    assert rendered == ["input.exr"], rendered

@@ -22,7 +22,7 @@ from drjit.llvm import Array2f
 
 from lab.errors import UserError
 
-__all__ = ["LinearMotion", "chief_ray_shift_px"]
+__all__ = ["LinearMotion", "chief_ray_shift_px", "offset_along_px"]
 
 
 @dataclass(frozen=True)
@@ -52,15 +52,21 @@ class LinearMotion:
     def offset_px(self, t, length_px) -> Array2f:
         """Displacement at shutter time ``t`` in [0, 1) for a travel of ``length_px`` pixels
         (Dr.Jit Floats), in image pixels (column, row) from the mid-shutter position."""
-        dx, dy = self.unit_px
-        s = (t - 0.5) * length_px
-        return Array2f(s * dx, s * dy)
+        a = math.radians(self.direction_deg)
+        return offset_along_px(t, length_px, math.cos(a), math.sin(a))
 
     def offset_px_np(self, t, length_px) -> tuple[np.ndarray, np.ndarray]:
         """numpy mirror of :meth:`offset_px`: (column, row) arrays."""
         dx, dy = self.unit_px
         s = (np.asarray(t, dtype=np.float64) - 0.5) * np.asarray(length_px, dtype=np.float64)
         return s * dx, s * dy
+
+
+def offset_along_px(t, length_px, cos, sin) -> Array2f:
+    """:meth:`LinearMotion.offset_px` along a direction given per ray by the ``cos`` and ``sin`` of
+    its angle (counter-clockwise from image +x, y up): image pixels (column, row)."""
+    s = (t - 0.5) * length_px
+    return Array2f(s * cos, -s * sin)
 
 
 def chief_ray_shift_px(lens, width_px: int, lateral_m, inv_depth):

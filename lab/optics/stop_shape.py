@@ -44,6 +44,7 @@ class StopShape:
     shape: Aperture
     radius_mm: float
     raster: np.ndarray = field(init=False, repr=False)
+    _flat: UInt32 = field(init=False, repr=False)      # the raster as Dr.Jit gathers it
 
     def __post_init__(self):
         c = (np.arange(RASTER) + 0.5) / RASTER * 2.0 - 1.0
@@ -77,12 +78,11 @@ class StopShape:
             x, y = c * x + s * y, c * y - s * x
         scale = RASTER / (2.0 * self.radius_mm)
         col, row = (x + self.radius_mm) * scale, (self.radius_mm - y) * scale
+        ok = (col >= 0) & (col < RASTER) & (row >= 0) & (row < RASTER)
         if isinstance(x, np.ndarray) or np.isscalar(x):
-            ok = (col >= 0) & (col < RASTER) & (row >= 0) & (row < RASTER)
             ci = np.clip(np.floor(col), 0, RASTER - 1).astype(np.int64)
             ri = np.clip(np.floor(row), 0, RASTER - 1).astype(np.int64)
             return ok & self.raster[ri, ci]
-        ok = (col >= 0) & (col < RASTER) & (row >= 0) & (row < RASTER)
         ci = UInt32(dr.clip(col, 0, RASTER - 1))
         ri = UInt32(dr.clip(row, 0, RASTER - 1))
         return ok & (dr.gather(UInt32, self._flat, ri * RASTER + ci, ok) != 0)

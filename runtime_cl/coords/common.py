@@ -160,6 +160,5 @@ def angle_bin(name: str, angle_deg: np.ndarray, db: SpreadletDatabase) -> tuple:
     lo, hi = grid.ranges[-1]
     theta = in_range(name, np.remainder(angle_deg - lo, hi - lo) + lo, db, grid.ns - 1, "deg",
                      lambda *_: REBUILD)   # never called: the remainder lies inside
-    s = (theta.astype(np.float64) - lo) / (hi - lo)
-    b = np.minimum(np.floor(s * grid.bins), grid.bins - 1)
-    return theta, lo + (b + 0.5) * (hi - lo) / grid.bins
+    b = grid.bin_index((theta.astype(np.float64) - lo) / (hi - lo))
+    return theta, 0.5 * sum(grid.bin_range(b))

@@ -224,8 +224,12 @@ class NestedGrid:
         s = self.normalise(x)
         if not self.bins:
             return self.index_of_grid(self.to_grid(s))
-        b = np.minimum(np.floor(s[..., -1] * self.bins).astype(np.int64), self.bins - 1)
-        return b * self.nested_size + self.index_of_grid(self.to_grid(s[..., :-1]))
+        return self.bin_index(s[..., -1]) * self.nested_size + self.index_of_grid(self.to_grid(s[..., :-1]))
+
+    def bin_index(self, s) -> np.ndarray:
+        """The bin of normalised values ``s`` in [0, 1] of the uniform last coordinate: floor(bins s),
+        the last bin for s = 1 (as ``psf_space.cl`` finds it)."""
+        return np.minimum(np.floor(np.asarray(s, np.float64) * self.bins).astype(np.int64), self.bins - 1)
 
     def to_json(self) -> dict:
         out = {"n": int(self.n), "beta": list(self.beta), "ranges": [list(r) for r in self.ranges],

@@ -30,11 +30,10 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import drjit as dr
-from drjit.llvm import Array2f
 
 from lab.errors import UserError
 from lab.optics.aperture import Aperture
-from lab.optics.motion import LinearMotion
+from lab.optics.motion import LinearMotion, offset_along_px
 from lab.optics.thin_lens import ThinLens
 from lab.psf_tracing.models.base import PSFModel, register_model
 from lab.psf_tracing.models.common import (ApertureKeys, LensKeys, binned_grid, check_angle_bins, check_common,
@@ -198,6 +197,7 @@ class Combined(PSFModel):
         t = rng.next_float32()
         if self.config.angle_bins:   # the ray's own direction, drawn over the cell's bin
             s, c = dr.sincos(dr.deg2rad(coords[2]))
-            step = (t - 0.5) * length
-            return RayHits(self.lens.psf_offset_px(h, inv_depth, width) + Array2f(step * c, -step * s))
-        return RayHits(self.lens.psf_offset_px(h, inv_depth, width) + self.motion.offset_px(t, length))
+            motion = offset_along_px(t, length, c, s)
+        else:
+            motion = self.motion.offset_px(t, length)
+        return RayHits(self.lens.psf_offset_px(h, inv_depth, width) + motion)

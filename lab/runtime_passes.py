@@ -38,13 +38,14 @@ def frame_of(image, source: str = "input", db=None, layered_input: bool = False,
             raise UserError(f"{source}: the input has no layerN.* channels; render it with layers (a scene "
                             "whose [[shapes]] have a layer key) or splat the flat image")
         layers = tuple(Frame(x.rgb, x.depth, alpha=x.alpha) for x in found)
-    samples = None
+    samples = depths = None
     if stochastic:
-        from runtime_cl.stochastic import lens_time_samples
+        from runtime_cl.stochastic import channel_depths, lens_time_samples
 
         samples = lens_time_samples(image.extra, source, image.depth.shape)
+        depths = channel_depths(image.extra, source, image.depth)
     return Frame(image.rgb, image.depth, alpha=image.alpha, motion=motion, layers=layers,
-                 guard_px=image.guard_px, samples=samples)
+                 guard_px=image.guard_px, samples=samples, channel_depth=depths)
 
 
 def camera_aperture(image, source: str = "input camera header", directions_m: int = 2, edges=None):

@@ -32,6 +32,9 @@ class Frame:
         all and crops the margin off the result.
     samples : array_like, (H, W, 3), optional
         ``lens.U, lens.V, time`` of a stochastic (1-spp) input (:mod:`runtime_cl.stochastic`).
+    channel_depth : array_like, (H, W, C), optional
+        ``Z.R, Z.G, Z.B`` of a stochastic input through a thick lens: the depth each colour
+        channel's ray hit (:func:`runtime_cl.stochastic.channel_depths`); default ``depth`` for all.
     """
 
     rgb: np.ndarray
@@ -41,6 +44,7 @@ class Frame:
     layers: tuple = ()
     guard_px: int = 0
     samples: np.ndarray | None = None
+    channel_depth: np.ndarray | None = None
 
     def __post_init__(self):
         rgb, depth = np.asarray(self.rgb), np.asarray(self.depth)
@@ -56,6 +60,9 @@ class Frame:
         if self.samples is not None and np.shape(self.samples) != (h, w, 3):
             raise InputError(f"samples: shape {np.shape(self.samples)}, need (H, W, 3) = {(h, w, 3)} "
                              "(lens.U, lens.V, time)")
+        if self.channel_depth is not None and np.shape(self.channel_depth) != rgb.shape:
+            raise InputError(f"channel_depth: shape {np.shape(self.channel_depth)}, need one depth per colour "
+                             f"channel, (H, W, C) = {rgb.shape} (Z.R, Z.G, Z.B)")
         object.__setattr__(self, "layers", tuple(self.layers))
         g = self.guard_px
         if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0 or (g and 2 * g >= min(h, w)):

@@ -9,7 +9,9 @@ the labelled input: the runtime's volume PSFs add it (tracing it here would add 
 lens's pixel sends one ray per channel, through the same exit-pupil box sample at the channel's
 wavelength, traced backward through the lens as the runtime re-traces it to re-centre the sample
 (:mod:`runtime_cl.stochastic.thick`); R, G and B are the three rays' radiances, and Z, A and the
-motion are the middle (510 nm) ray's. A ray the lens blocks adds nothing (its channel is 0). Mitsuba
+motion are the middle (510 nm) ray's; ``Z.R`` and ``Z.B`` are the depths the other two rays hit
+(dispersed by the lens, a ray can pass a small drop that the 510 nm one hits: its sample goes back
+to the pinhole position of its own hit). A ray the lens blocks adds nothing (its channel is 0). Mitsuba
 3.9.1 cannot move shapes during a launch, so, as for the motion reference
 (:mod:`lab.reference.motion`), the shutter is cut into sub-frames at most a pixel of motion
 apart: a pixel's time picks its sub-frame, and each sub-frame traces only its own pixels (one
@@ -19,7 +21,8 @@ Channels written (the contract of :mod:`runtime_cl.stochastic.samples`): R, G, B
 radiance), A (1 where the primary ray hits a surface), Z (the planar depth of that hit from the
 camera at time t), ``lens.U, lens.V`` (the lens point in the film's axes, :func:`lens_channels`)
 and ``time``; with motion also ``motion.X, motion.Y`` (the
-hit point's chord from shutter open to close, as the labelled input's).
+hit point's chord from shutter open to close, as the labelled input's); through a thick lens also
+``Z.R, Z.B`` (:data:`runtime_cl.stochastic.samples.CHANNEL_DEPTHS`).
 
 ``shading_spp`` > 1 traces that many paths from each pixel's one camera ray (same sub-pixel
 position, lens sample and time) and averages them: one *visibility* sample per pixel with
@@ -136,7 +139,9 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     ``rgb`` (N, 3), ``depth`` (N,), ``points`` (N, 3) world hit points, ``shape_idx`` (N,) scene
     shape hit (-1: none), ``lens`` (N, 2) Mitsuba's aperture samples (a thick lens's box samples),
     ``t_frac`` (N,) shutter fractions, ``jitter`` (N, 2) sub-pixel positions, ``blocked`` (N,) the
-    thick lens blocked the pixel's middle-wavelength ray (no sample: colour 0, depth inf).
+    thick lens blocked the pixel's middle-wavelength ray (no sample: colour 0, depth inf);
+    ``channel_depth`` (N, 3): through a thick lens, the depth each channel's ray hit (inf: none;
+    the middle ray's depth where the lens blocks a channel's ray), else None.
 
     Parameters
     ----------
@@ -181,6 +186,7 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
     points = np.zeros((h * w, 3))
     shape_idx = np.full(h * w, -1)
     blocked = np.zeros(h * w, bool)
+    channel_depth = np.full((h * w, 3), np.inf, np.float32) if thick is not None else None
     t_frac = (slot + 0.5) / k
     open_, close = scene.camera.shutter
     for s in range(k):
@@ -202,6 +208,9 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
                 spec, _, _ = integrator.sample(mi_scene, sampler, ray_c, sensor.get_medium(), True)
                 rgb[pix, c] = (np.asarray(spec[c]) * ok * np.repeat(seen, shading_spp)).reshape(
                     pix.size, shading_spp).mean(axis=1)
+                if c != 1:   # the other rays' own hits (the middle one's is the depth below)
+                    z_c = _hit_depth(scene, mi_scene, ray_c, shading_spp, t_abs)[0]
+                    channel_depth[pix, c] = np.where(ok[::shading_spp], z_c, np.nan)
         else:
             pos = mi.Point2f(mi.Float(((lanes % w) + jitter[lanes, 0]) / w),
                              mi.Float(((lanes // w) + jitter[lanes, 1]) / h))
@@ -212,19 +221,31 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
             rgb[pix] = np.stack([np.asarray(value[i]) for i in range(3)], axis=-1).reshape(
                 pix.size, shading_spp, 3).mean(axis=1)
             seen = np.ones(pix.size, bool)
-        ray = mi.Ray3f(mi.Point3f(*(mi.Float(np.asarray(ray.o[i])[::shading_spp]) for i in range(3))),
-                       mi.Vector3f(*(mi.Float(np.asarray(ray.d[i])[::shading_spp]) for i in range(3))))
-        si = mi_scene.ray_intersect(ray)
-        valid = np.asarray(si.is_valid(), bool) & seen
-        p = np.stack([np.asarray(si.p[i], np.float64) for i in range(3)], axis=-1)
-        z = (p - scene.camera.position_at(t_abs)) @ scene.camera.forward()
+        z, valid, p, si = _hit_depth(scene, mi_scene, ray, shading_spp, t_abs)
+        valid &= seen
         depth[pix] = np.where(valid, z, np.inf)
         blocked[pix] = ~seen
         points[pix] = p
         raw = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape))
         shape_idx[pix] = np.where(valid, [shape_of.get(int(r), -1) for r in raw], -1)
+    if channel_depth is not None:   # a channel's ray the lens blocks is no sample: the middle ray's depth
+        channel_depth[:, 1] = depth
+        channel_depth = np.where(np.isnan(channel_depth), depth[:, None], channel_depth)
     return {"rgb": rgb, "depth": depth, "points": points, "shape_idx": shape_idx, "lens": lens,
-            "t_frac": t_frac, "jitter": jitter, "blocked": blocked}
+            "t_frac": t_frac, "jitter": jitter, "blocked": blocked, "channel_depth": channel_depth}
+
+
+def _hit_depth(scene: Scene, mi_scene, ray, lanes_per_pixel: int, t_abs: float) -> tuple:
+    """What the first of every ``lanes_per_pixel`` rays of ``ray`` hits: its planar depth from
+    the camera at ``t_abs`` (inf: nothing), whether it hit, the points and Mitsuba's interaction."""
+    mi = mitsuba()
+    first = mi.Ray3f(mi.Point3f(*(mi.Float(np.asarray(ray.o[i])[::lanes_per_pixel]) for i in range(3))),
+                     mi.Vector3f(*(mi.Float(np.asarray(ray.d[i])[::lanes_per_pixel]) for i in range(3))))
+    si = mi_scene.ray_intersect(first)
+    valid = np.asarray(si.is_valid(), bool)
+    p = np.stack([np.asarray(si.p[i], np.float64) for i in range(3)], axis=-1)
+    z = (p - scene.camera.position_at(t_abs)) @ scene.camera.forward()
+    return np.where(valid, z, np.inf), valid, p, si
 
 
 def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
@@ -257,6 +278,10 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
     header = scene.camera.camera_json()
     if scene.medium is not None:
         header["medium"] = scene.medium.header_json(scene.camera)
+    if tr["channel_depth"] is not None:
+        depths = np.where(tr["blocked"][:, None], tr["depth"][:, None], tr["channel_depth"])
+        extra.update({f"Z.{name}": _fill_blocked(depths[:, c], tr["blocked"], (h, w))
+                      for c, name in ((0, "R"), (2, "B"))})
     alpha = np.isfinite(depth).astype(np.float32).reshape(h, w)
     return LabelledImage(rgb=tr["rgb"].reshape(h, w, 3), alpha=alpha, depth=_fill_blocked(depth, tr["blocked"], (h, w)),
                          camera=header, extra=extra)

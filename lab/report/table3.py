@@ -103,13 +103,16 @@ def sizing_image(image, inputs):
     the stochastic inputs' (the stochastic samples also see what the pinhole does not: through the
     lens rim, at other times). A few pixels take the extremes; the frame keeps its size, which a
     lens's PSFs are traced for (eccentricity)."""
+    from runtime_cl.stochastic import CHANNEL_DEPTHS
+
     from ..exr_io import LabelledImage
 
     names = [c for c in ("motion.X", "motion.Y") if c in image.extra]
     planes = {"Z": image.depth, **{c: image.extra[c] for c in names}}
     out = {}
     for name, plane in planes.items():
-        stack = [plane] + [x.depth if name == "Z" else x.extra[name] for x in inputs]
+        stack = [plane] + [x.extra[name] for x in inputs if name != "Z"] + \
+            [a for x in inputs if name == "Z" for a in [x.depth] + [x.extra[c] for c in CHANNEL_DEPTHS if c in x.extra]]
         flat = np.array(plane, np.float32).ravel()
         finite = [a[np.isfinite(a)] for a in map(np.asarray, stack)]
         lo, hi = min(float(a.min()) for a in finite if a.size), max(float(a.max()) for a in finite if a.size)
@@ -122,13 +125,14 @@ def sizing_image(image, inputs):
 
 def _frame(img, source: str):
     from runtime_cl.frame import Frame
-    from runtime_cl.stochastic import lens_time_samples
+    from runtime_cl.stochastic import channel_depths, lens_time_samples
 
     motion = None
     if "motion.X" in img.extra:
         motion = np.stack([img.extra["motion.X"], img.extra["motion.Y"]], axis=-1)
     return Frame(img.rgb, img.depth, alpha=img.alpha, motion=motion,
-                 samples=lens_time_samples(img.extra, source, img.depth.shape))
+                 samples=lens_time_samples(img.extra, source, img.depth.shape),
+                 channel_depth=channel_depths(img.extra, source, img.depth))
 
 
 def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, shading_spp: int = 1) -> dict:

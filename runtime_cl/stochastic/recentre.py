@@ -165,9 +165,10 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     Recentred
 
     A thick lens (:mod:`runtime_cl.stochastic.thick`) re-centres each colour channel through the
-    lens at its own wavelength: its frames hold one channel each and their counts (H, W, C) that
-    channel's samples. A channel's sample whose ray the lens blocks is dropped, and so is every
-    channel of a pixel whose middle-channel ray it blocks (the stochastic input leaves it empty).
+    lens at its own wavelength, at the depth its own ray hit (``frame.channel_depth``; default the
+    frame's depth): its frames hold one channel each and their counts (H, W, C) that channel's
+    samples. A channel's sample whose ray the lens blocks is dropped, and so is every channel of a
+    pixel whose middle-channel ray it blocks (the stochastic input leaves it empty).
     """
     if footprint not in FOOTPRINTS:
         raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)}")
@@ -177,8 +178,10 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         return _recentre(frame, pinhole_positions(frame.depth, samples, camera, motion), camera, **options)
     rgb = np.asarray(frame.rgb, np.float32)
     boxes = PupilBoxes.for_camera(camera, rgb.shape[:2])
-    positions = [thick_positions(frame.depth, samples, camera, c, boxes) - _motion_shift(samples, motion)
-                 for c in range(rgb.shape[2])]
+    depths = [frame.depth if frame.channel_depth is None else np.asarray(frame.channel_depth)[..., c]
+              for c in range(rgb.shape[2])]
+    positions = [thick_positions(z, samples, camera, c, boxes) - _motion_shift(samples, motion)
+                 for c, z in enumerate(depths)]
     # a pixel whose middle-wavelength ray the lens blocks is no sample (lab.reference.stochastic)
     blocked = np.isnan(positions[rgb.shape[2] // 2][..., :1])
     parts = []
@@ -186,7 +189,7 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
         pos = np.where(blocked, np.nan, pos)
         mono = np.zeros_like(rgb)
         mono[..., c] = rgb[..., c]
-        rec = _recentre(replace(frame, rgb=mono), pos, camera, **options)
+        rec = _recentre(replace(frame, rgb=mono, depth=depths[c], channel_depth=None), pos, camera, **options)
         counts = []
         for n in rec.counts:
             k = np.zeros(n.shape[:2] + (rgb.shape[2],), np.float32)

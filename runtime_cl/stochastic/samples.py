@@ -9,7 +9,9 @@ y' (in pixels) at time t is seen through lens point d at y = y' + c(Z) d, c the 
 radius in pixels (positive behind the focus plane), and moves on the film by the motion vector
 times t over the shutter. Through a thick lens (camera ``"lens": "thick"``) ``lens.U, lens.V``
 are instead the sample's exit-pupil box coordinates, from which the runtime re-traces its ray
-through the lens per channel (:mod:`runtime_cl.stochastic.thick`).
+through the lens per channel (:mod:`runtime_cl.stochastic.thick`), and the lens disperses them:
+``Z.R, Z.G, Z.B`` (:data:`CHANNEL_DEPTHS`, optional; a missing one is ``Z``) are the depths each
+channel's ray hit, so each channel's sample goes back to its own surface.
 """
 from __future__ import annotations
 
@@ -17,9 +19,11 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 
-__all__ = ["CHANNELS", "concentric_disc", "inverse_concentric", "lens_time_samples"]
+__all__ = ["CHANNELS", "CHANNEL_DEPTHS", "channel_depths", "concentric_disc", "inverse_concentric",
+           "lens_time_samples"]
 
 CHANNELS = ("lens.U", "lens.V", "time")
+CHANNEL_DEPTHS = ("Z.R", "Z.G", "Z.B")
 _FIX = ("write the pixel's lens sample (lens.U, lens.V) and its shutter time as a fraction of the shutter "
         "(time), each in [0, 1), e.g. with `splatlab stochastic SCENE`")
 
@@ -79,5 +83,35 @@ def lens_time_samples(channels: dict, source: str, shape: tuple) -> np.ndarray:
             y, x = np.argwhere(bad)[0]
             raise InputError(f"{source}: channel {name} = {float(ch[y, x])!r} at pixel (x={x}, y={y}) "
                              f"({int(bad.sum())} pixel(s)) lies outside [0, 1); {_FIX}")
+        out[..., k] = ch
+    return out
+
+
+def channel_depths(channels: dict, source: str, depth) -> np.ndarray | None:
+    """``(H, W, 3)`` float32: per colour channel, the planar depth (m) its sample's ray hit, from
+    :data:`CHANNEL_DEPTHS` (a missing one: ``depth``, the image's Z); None when ``channels``
+    (name -> (H, W)) holds none of them.
+
+    Raises
+    ------
+    InputError
+        A depth channel of another size, NaN, or not above 0 (inf: the ray hit nothing): one line
+        naming ``source``, the channel, the bad value and the fix.
+    """
+    if not any(name in channels for name in CHANNEL_DEPTHS):
+        return None
+    depth = np.asarray(depth, np.float32)
+    out = np.empty(depth.shape + (3,), np.float32)
+    for k, name in enumerate(CHANNEL_DEPTHS):
+        ch = np.asarray(channels.get(name, depth), np.float32)
+        if ch.shape != depth.shape:
+            raise InputError(f"{source}: channel {name} is {ch.shape}, the image is {depth.shape}; write one "
+                             "depth per pixel")
+        bad = ~(ch > 0.0)   # NaN too
+        if bad.any():
+            y, x = np.argwhere(bad)[0]
+            raise InputError(f"{source}: channel {name} = {float(ch[y, x])!r} at pixel (x={x}, y={y}) "
+                             f"({int(bad.sum())} pixel(s)) is no depth; write the planar depth in metres (> 0, "
+                             "inf: nothing) that the channel's ray hit, e.g. with `splatlab stochastic SCENE`")
         out[..., k] = ch
     return out

@@ -14,6 +14,8 @@ def _write(path, **channels):
     rng = np.random.default_rng(0)
     extra = {"lens.U": rng.random((12, 12), dtype=np.float32), "lens.V": rng.random((12, 12), dtype=np.float32),
              "time": rng.random((12, 12), dtype=np.float32)}
+    if "Z.R" in channels:   # a thick lens's per-channel depth (the camera header here is a thin lens's)
+        extra["Z.R"] = np.full((12, 12), 2.0, np.float32)
     for name, value in channels.items():
         if value is None:
             del extra[name]
@@ -43,6 +45,8 @@ def test_render_a_stochastic_exr(work, method, capfd):
     ({"lens.U": 1.5}, ["channel lens.U = 1.5", "pixel (x=5, y=3)", "outside [0, 1)", "lens sample"]),
     ({"lens.V": -0.25}, ["channel lens.V = -0.25", "outside [0, 1)"]),
     ({"time": None}, ["channel(s) ['time'] missing", "shutter time"]),
+    ({"Z.R": -1.0}, ["channel Z.R = -1.0", "pixel (x=5, y=3)", "planar depth in metres"]),
+    ({"Z.R": float("nan")}, ["channel Z.R = nan", "is no depth"]),
 ])
 def test_bad_stochastic_exr(work, capfd, channels, needles):
     _write(work / "in.exr", **channels)
@@ -121,3 +125,6 @@ def test_stochastic_command_writes_a_thick_lens_input(work):
     for name in ("lens.U", "lens.V", "time"):
         assert 0.0 <= image.extra[name].min() and image.extra[name].max() < 1.0
     assert image.alpha.mean() > 0.5 and np.isfinite(image.rgb).all() and image.rgb.max() > 0
+    for name in ("Z.R", "Z.B"):   # each dispersed ray's own hit: mostly the middle ray's, not everywhere
+        same = np.isclose(image.extra[name], image.depth, rtol=0.05)
+        assert image.extra[name].min() > 0 and 0.5 < same.mean() < 1.0, (name, same.mean())

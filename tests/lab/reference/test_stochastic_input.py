@@ -88,6 +88,40 @@ def test_thick_lens_samples_return_to_the_pinhole_projections():
     assert err.max() < 1e-3, err.max()   # float32 Mitsuba rays and depths: 9e-5 px measured
 
 
+def test_each_channel_of_a_thick_lens_sample_returns_to_its_own_hit():
+    """Dispersed by the lens, a pixel's red and blue rays can pass a drop its middle ray hits, or
+    hit one it passes. Each channel's depth (``channel_depth``, written as ``Z.R, Z.B``) is its own
+    ray's hit, checked against Mitsuba's intersection of that ray, so the channel's line at that
+    depth is the pinhole projection of its own hit point; at the middle ray's depth such samples
+    land pixels away (the coloured specks a reconstruction then draws)."""
+    from lab.reference.render import load
+    from lab.reference.stochastic import thick_rays
+    from runtime_cl.camera.exit_pupil import PupilBoxes
+    from runtime_cl.stochastic.thick import ray_lines
+
+    scene = load_scene(SCENES / "tiny_rain.toml")
+    tr = trace_samples(scene)
+    h, w = scene.height, scene.width
+    camera = scene.camera.runtime_camera()
+    film = np.stack([np.arange(h * w) % w, np.arange(h * w) // w], axis=1) + tr["jitter"]
+    mi_scene = load(scene, "scene")
+    t_mid = 0.5 * sum(scene.camera.shutter)
+    for c in (0, 2):
+        ray, ok = thick_rays(camera, mi_scene.sensors()[0], (h, w), film, tr["lens"], c, t_mid)
+        si = mi_scene.ray_intersect(ray)
+        hit = np.asarray(si.is_valid(), bool) & ok & ~tr["blocked"]
+        p = np.stack([np.asarray(si.p[i], np.float64) for i in range(3)], axis=-1)[hit]
+        own = tr["channel_depth"][hit, c]
+        np.testing.assert_allclose(own, (p - scene.camera.position_at(t_mid)) @ scene.camera.forward(), rtol=1e-6)
+        a, b, _ = ray_lines(camera, PupilBoxes.for_camera(camera, (h, w)), (h, w), film, tr["lens"], c)
+        target = project(scene, p, 0.5)
+        err = np.hypot(*(a[hit] + b[hit] / own[:, None] - target).T)
+        assert err.max() < 1e-3, err.max()
+        middle = np.hypot(*(a[hit] + b[hit] / tr["depth"][hit, None] - target).T)
+        apart = ~np.isclose(own, tr["depth"][hit], rtol=0.05)
+        assert 0.003 < apart.mean() < 0.2 and middle[apart].max() > 1.0, (apart.mean(), middle[apart].max())
+
+
 def test_thick_lens_recentres_each_channel_through_its_wavelength():
     """A thick camera's re-centring traces every channel at its own indices: one sample's three
     channels return to places up to a pixel apart (the singlet's lateral colour, undone), each

@@ -10,7 +10,7 @@ from runtime_cl.frame import Frame
 from runtime_cl.passes import run_pass
 from runtime_cl.psf.disc import disc_psf
 from runtime_cl.psf.synthetic import disc_database
-from runtime_cl.stochastic import concentric_disc, inverse_concentric, lens_time_samples, recentre
+from runtime_cl.stochastic import channel_depths, concentric_disc, inverse_concentric, lens_time_samples, recentre
 
 SIZE = 64
 CAMERA = ThinLens(85.0, 0.5, 2.0)          # 13.4 px of CoC per dioptre at 64 px (scenes/tiny.toml)
@@ -100,6 +100,19 @@ def test_bad_channels_name_the_channel_value_and_fix():
         lens_time_samples({k: good[k] for k in ("lens.U", "lens.V")}, "in.exr", (4, 4))
     with pytest.raises(InputError, match="stochastic_splat.*needs the channels"):
         run_pass("stochastic_splat", Frame(np.ones((4, 4, 3)), np.ones((4, 4))), CAMERA, disc_database(4.0))
+
+
+def test_channel_depths_default_to_z_and_refuse_bad_values():
+    z = np.full((4, 4), 3.0, np.float32)
+    assert channel_depths({}, "in.exr", z) is None
+    got = channel_depths({"Z.R": np.full((4, 4), np.inf)}, "in.exr", z)   # inf: the ray hit nothing
+    assert got.shape == (4, 4, 3) and np.isinf(got[..., 0]).all() and (got[..., 1:] == 3.0).all()
+    with pytest.raises(InputError, match=r"in\.exr: channel Z\.B = 0\.0 at pixel \(x=0, y=0\) \(16 pixel"):
+        channel_depths({"Z.B": np.zeros((4, 4))}, "in.exr", z)
+    with pytest.raises(InputError, match=r"in\.exr: channel Z\.R is \(2, 2\), the image is \(4, 4\)"):
+        channel_depths({"Z.R": np.ones((2, 2))}, "in.exr", z)
+    with pytest.raises(InputError, match=r"channel_depth: shape \(4, 4, 1\), need one depth per colour"):
+        Frame(np.ones((4, 4, 3)), z, channel_depth=np.ones((4, 4, 1)))
 
 
 def test_normalised_reconstruction_of_a_flat_plane_is_flat():

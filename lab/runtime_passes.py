@@ -155,8 +155,6 @@ def read_input(path, camera_file=None):
 
     camera = None
     if camera_file is not None:
-        import numpy as np
-
         from .focal_constraints import unresolved
         from .focus import surface_from_depth
         from .scene import load_camera

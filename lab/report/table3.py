@@ -148,6 +148,9 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
     from ..runtime_passes import far_field_option, runtime_camera
     from .images import save_render
 
+    # the stochastic passes take what lies outside the frame from their own samples (keep_outside);
+    # a guarded labelled input would only size the databases and the camera for a wider image
+    scene = replace(scene, render=replace(scene.render, guard_band=False))
     plan = make_plan(scene)
     check_tables(scene, plan.psf_models)
     image, reference, info = inputs_and_reference(scene, plan, progress, second=True)

@@ -111,8 +111,10 @@ def sizing_image(image, inputs):
     planes = {"Z": image.depth, **{c: image.extra[c] for c in names}}
     out = {}
     for name, plane in planes.items():
-        stack = [plane] + [x.extra[name] for x in inputs if name != "Z"] + \
-            [a for x in inputs if name == "Z" for a in [x.depth] + [x.extra[c] for c in CHANNEL_DEPTHS if c in x.extra]]
+        if name == "Z":   # and the depth each channel's ray hit (a thick lens's Z.R, Z.B)
+            stack = [plane] + [a for x in inputs for a in [x.depth] + [x.extra[c] for c in CHANNEL_DEPTHS if c in x.extra]]
+        else:
+            stack = [plane] + [x.extra[name] for x in inputs]
         flat = np.array(plane, np.float32).ravel()
         finite = [a[np.isfinite(a)] for a in map(np.asarray, stack)]
         lo, hi = min(float(a.min()) for a in finite if a.size), max(float(a.max()) for a in finite if a.size)

@@ -48,6 +48,8 @@ def test_sizing_image_keeps_the_frame_and_spans_every_input():
     mx = [x.extra["motion.X"] for x in [base] + inputs]
     assert sized.extra["motion.X"].min() == min(a.min() for a in mx) and sized.extra["motion.X"].max() == max(a.max() for a in mx)
     assert np.count_nonzero(sized.depth != base.depth) <= 2
+    inputs[0].extra["Z.R"] = np.full((6, 8), 0.5, np.float32)   # a thick lens's red ray hit nearer
+    assert sizing_image(base, inputs).depth.min() == 0.5
 
 
 @pytest.mark.slow

@@ -14,6 +14,8 @@ from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 
+import numpy as np
+
 from runtime_cl.atomic_file import atomic_path, check_output, check_output_dir, remove_stale_temps
 
 from .cache_key import code_digest

@@ -125,21 +125,9 @@ def sizing_image(image, inputs):
     return LabelledImage(image.rgb, image.alpha, out["Z"], image.camera, {c: out[c] for c in names})
 
 
-def _frame(img, source: str):
-    from runtime_cl.frame import Frame
-    from runtime_cl.stochastic import channel_depths, lens_time_samples
-
-    motion = None
-    if "motion.X" in img.extra:
-        motion = np.stack([img.extra["motion.X"], img.extra["motion.Y"]], axis=-1)
-    return Frame(img.rgb, img.depth, alpha=img.alpha, motion=motion,
-                 samples=lens_time_samples(img.extra, source, img.depth.shape),
-                 channel_depth=channel_depths(img.extra, source, img.depth))
-
-
 def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, shading_spp: int = 1) -> dict:
     """Every figure of one scene's Table 3 row; writes its PNGs into ``out_dir``."""
-    from runtime_cl.coords.maps import attenuates
+    from runtime_cl.coords.maps import attenuates, needs_motion
     from runtime_cl.passes import get_pass, run_pass
     from runtime_cl.psf.database import SpreadletDatabase
     from runtime_cl.psf.far_field import MODEL as FAR_FIELD
@@ -147,7 +135,7 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
     from ..pipeline import build_databases, inputs_and_reference, stochastic_input
     from ..plan import make_plan
     from ..psf_settings import check_tables
-    from ..runtime_passes import far_field_option, runtime_camera
+    from ..runtime_passes import far_field_option, frame_of, runtime_camera
     from .images import save_render
 
     # the stochastic passes take what lies outside the frame from their own samples (keep_outside);
@@ -162,7 +150,11 @@ def scene_row(scene, out_dir: Path, progress: bool = True, spp4: bool = True, sh
     dbs = build_databases(scene, plan, sizing_image(image, inputs), progress=progress)
     dbs = {m: SpreadletDatabase.load(r.path, expect_model=m) for m, r in dbs.items()}
     far = dbs.pop(FAR_FIELD, None)   # completes the volume database's render (its halos beyond the window)
-    frames = [_frame(img, f"{scene.name} stochastic input {i}") for i, img in enumerate(inputs)]
+    # the passes' own reading of a stochastic EXR (lens samples, times, per-channel depths; motion
+    # for a motion database: the re-centring moves each sample back along it)
+    moving = next((db for db in dbs.values() if needs_motion(db.model)), None)
+    frames = [frame_of(img, f"{scene.name} stochastic input {i}", db=moving, stochastic=True)
+              for i, img in enumerate(inputs)]
     camera = runtime_camera(image)
     row = {"scene": scene.name, "size": [scene.width, scene.height], "models": sorted(dbs),
            "reference_spp": scene.render.reference_spp, "shading_spp": shading_spp,

@@ -128,3 +128,15 @@ def test_stochastic_command_writes_a_thick_lens_input(work):
     for name in ("Z.R", "Z.B"):   # each dispersed ray's own hit: mostly the middle ray's, not everywhere
         same = np.isclose(image.extra[name], image.depth, rtol=0.05)
         assert image.extra[name].min() > 0 and 0.5 < same.mean() < 1.0, (name, same.mean())
+
+
+def test_stochastic_command_on_a_moving_scene(work):
+    """A moving scene's sub-frames follow its input's longest motion: the input renders first, and
+    the stochastic EXR carries the motion and every shutter time's share."""
+    from lab.exr_io import read_labelled
+    from lab.paths import SCENES
+
+    assert main(["stochastic", str(SCENES / "tiny_motion.toml"), "--out", str(work / "s.exr"), "--quiet"]) == 0
+    image = read_labelled(work / "s.exr")
+    assert {"motion.X", "motion.Y", "time"} <= set(image.extra)
+    assert np.abs(image.extra["motion.X"]).max() > 1.0 and len(np.unique(image.extra["time"])) > 2

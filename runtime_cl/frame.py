@@ -30,8 +30,9 @@ class Frame:
         Guard band (LSR18 "Boundary"): the pixels are the frame plus this margin on every side,
         so blur from outside the frame comes in; :func:`runtime_cl.passes.run_pass` renders them
         all and crops the margin off the result.
-    samples : array_like, (H, W, 3), optional
-        ``lens.U, lens.V, time`` of a stochastic (1-spp) input (:mod:`runtime_cl.stochastic`).
+    samples : array_like, (H, W, 3) or (H, W, 5), optional
+        ``lens.U, lens.V, time`` of a stochastic (1-spp) input (:mod:`runtime_cl.stochastic`), and
+        optionally ``subpixel.X, subpixel.Y``.
     channel_depth : array_like, (H, W, C), optional
         ``Z.R, Z.G, Z.B`` of a stochastic input through a thick lens: the depth each colour
         channel's ray hit (:func:`runtime_cl.stochastic.channel_depths`); default ``depth`` for all.
@@ -57,9 +58,9 @@ class Frame:
         if self.motion is not None and np.shape(self.motion) != (h, w, 2):
             raise InputError(f"motion: shape {np.shape(self.motion)}, need (H, W, 2) = {(h, w, 2)} "
                              "(motion.X, motion.Y in pixels, Y up)")
-        if self.samples is not None and np.shape(self.samples) != (h, w, 3):
+        if self.samples is not None and np.shape(self.samples) not in ((h, w, 3), (h, w, 5)):
             raise InputError(f"samples: shape {np.shape(self.samples)}, need (H, W, 3) = {(h, w, 3)} "
-                             "(lens.U, lens.V, time)")
+                             "(lens.U, lens.V, time) or (H, W, 5) (and subpixel.X, subpixel.Y)")
         if self.channel_depth is not None and np.shape(self.channel_depth) != rgb.shape:
             raise InputError(f"channel_depth: shape {np.shape(self.channel_depth)}, need one depth per colour "
                              f"channel, (H, W, C) = {rgb.shape} (Z.R, Z.G, Z.B)")

@@ -2,27 +2,30 @@
 the scene's own camera, with the pixel's lens sample and shutter time as channels.
 
 Each pixel gets its own sub-pixel position (the box filter the references use), lens sample
-(u, v) and shutter time t, and one path traced with the scene's integrator (``path``) through the
-camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped aperture the reference's own
-sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A ``[medium]`` is left out, as from
-the labelled input: the runtime's volume PSFs add it (tracing it here would add it twice). A thick
-lens's pixel sends one ray per channel, through the same exit-pupil box sample at the channel's
-wavelength, traced backward through the lens as the runtime re-traces it to re-centre the sample
-(:mod:`runtime_cl.stochastic.thick`); R, G and B are the three rays' radiances, and Z, A and the
-motion are the middle (510 nm) ray's; ``Z.R`` and ``Z.B`` are the depths the other two rays hit
-(dispersed by the lens, a ray can pass a small drop that the 510 nm one hits: its sample goes back
-to the pinhole position of its own hit). A ray the lens blocks adds nothing (its channel is 0). Mitsuba
-3.9.1 cannot move shapes during a launch, so, as for the motion reference
+(u, v) and shutter time t, one point per pixel of an image-wide scrambled Sobol net
+(:func:`sample_points`: neighbouring pixels share out the lens and the shutter, as a stochastic
+rasterizer's sample pattern does), and one path traced with the scene's integrator (``path``)
+through the camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped aperture the
+reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A ``[medium]`` is
+left out, as from the labelled input: the runtime's volume PSFs add it (tracing it here would add
+it twice). A thick lens's pixel sends one ray per channel, through the same exit-pupil box sample
+at the channel's wavelength (drawn again until the lens passes the middle ray:
+:func:`passing_lens`), traced backward through the lens as the runtime re-traces it to re-centre
+the sample (:mod:`runtime_cl.stochastic.thick`); R, G and B are the three rays' radiances, and Z,
+A and the motion are the middle (510 nm) ray's; ``Z.R`` and ``Z.B`` are the depths the other two
+rays hit (dispersed by the lens, a ray can pass a small drop that the 510 nm one hits: its sample
+goes back to the pinhole position of its own hit). A ray the lens blocks adds nothing (its
+channel is 0). Mitsuba 3.9.1 cannot move shapes during a launch, so, as for the motion reference
 (:mod:`lab.reference.motion`), the shutter is cut into sub-frames at most a pixel of motion
 apart: a pixel's time picks its sub-frame, and each sub-frame traces only its own pixels (one
 path per pixel in all). ``time`` is the sub-frame's time, the time the path was traced at.
 
 Channels written (the contract of :mod:`runtime_cl.stochastic.samples`): R, G, B (the path's
 radiance), A (1 where the primary ray hits a surface), Z (the planar depth of that hit from the
-camera at time t), ``lens.U, lens.V`` (the lens point in the film's axes, :func:`lens_channels`)
-and ``time``; with motion also ``motion.X, motion.Y`` (the
-hit point's chord from shutter open to close, as the labelled input's); through a thick lens also
-``Z.R, Z.B`` (:data:`runtime_cl.stochastic.samples.CHANNEL_DEPTHS`).
+camera at time t), ``lens.U, lens.V`` (the lens point in the film's axes, :func:`lens_channels`),
+``time`` and ``subpixel.X, subpixel.Y`` (the sample's place in its pixel); with motion also
+``motion.X, motion.Y`` (the hit point's chord from shutter open to close, as the labelled
+input's); through a thick lens also ``Z.R, Z.B`` (:data:`runtime_cl.stochastic.samples.CHANNEL_DEPTHS`).
 
 ``shading_spp`` > 1 traces that many paths from each pixel's one camera ray (same sub-pixel
 position, lens sample and time) and averages them: one *visibility* sample per pixel with
@@ -51,6 +54,7 @@ from .render import load
 __all__ = ["lens_channels", "render_stochastic", "stochastic_seed", "thick_rays", "trace_samples"]
 
 _STREAM = 0x5707    # the stochastic input's seed stream (apart from the reference and input streams)
+PASS_TRIES = 64     # box samples drawn per pixel until its thick-lens ray passes (passing_lens)
 
 
 def stochastic_seed(scene: Scene, index: int) -> np.random.SeedSequence:
@@ -128,6 +132,50 @@ def thick_rays(camera, sensor, shape, film, lens, channel: int, t_abs: float) ->
     return mi.RayDifferential3f(ray), ok
 
 
+def sample_points(rng: np.random.Generator, h: int, w: int) -> tuple:
+    """Every pixel's sub-pixel position, lens sample and shutter fraction, one point per pixel of a
+    scrambled 5-D Sobol net (pbrt-v4's image-wide Sobol sampling, Owen-style scrambled by scipy):
+    its first two coordinates on a square of 2^k pixels hold exactly one point in every pixel (a
+    (0, 2k, 2)-net), so the lens and time coordinates of neighbouring pixels are stratified
+    against their positions, as a stochastic rasterizer's sample pattern is, while each pixel's
+    point stays uniform (unbiased). Returns ``jitter`` (N, 2) float64 in [0, 1), ``lens`` (N, 2)
+    float32 and ``shutter`` (N,) float64, row-major."""
+    from scipy.stats import qmc
+
+    side = 1 << max(int(np.ceil(np.log2(max(h, w)))), 0)
+    pts = qmc.Sobol(5, scramble=True, seed=rng).random_base2(2 * int(np.log2(side)))
+    cell = np.floor(pts[:, :2] * side).astype(np.int64)
+    inside = (cell[:, 0] < w) & (cell[:, 1] < h)
+    order = np.argsort(cell[inside, 1] * w + cell[inside, 0])
+    pts, cell = pts[inside][order], cell[inside][order]
+    top = np.nextafter(np.float32(1.0), np.float32(0.0))
+    return (pts[:, :2] * side - cell, np.minimum(pts[:, 2:4].astype(np.float32), top), pts[:, 4])
+
+
+def passing_lens(camera, shape: tuple, film: np.ndarray, lens: np.ndarray, rng: np.random.Generator,
+                 tries: int = PASS_TRIES) -> np.ndarray:
+    """``lens`` ((N, 2) float32 exit-pupil box samples) with each sample whose middle-wavelength
+    ray from ``film`` ((N, 2) px) the thick lens blocks drawn again, uniformly in the box, until
+    one passes (at most ``tries`` draws; a pixel none of them passes keeps its first).
+
+    The box is the pupil's bounding box, so about a quarter of its points miss the round stop (far
+    more at a vignetted corner): each such pixel would hold no sample. Drawing until a ray passes
+    is uniform over the rays that pass, which is what the reference's pixel averages (its weight
+    ``box area / A(r)``, :mod:`lab.reference.thick_lens_sensor`), so each pixel's value estimates
+    the reference's without the factor ``A(r) / box area`` that the blocked pixels put in."""
+    lens = np.array(lens, np.float32)
+    boxes = _boxes(camera, tuple(shape))
+    todo = np.flatnonzero(~backward_rays(camera, boxes, shape, film, lens, 1)[2])
+    for _ in range(tries - 1):
+        if todo.size == 0:
+            break
+        trial = rng.random((todo.size, 2)).astype(np.float32)
+        ok = backward_rays(camera, boxes, shape, film[todo], trial, 1)[2]
+        lens[todo[ok]] = trial[ok]
+        todo = todo[~ok]
+    return lens
+
+
 @functools.lru_cache(maxsize=4)
 def _boxes(camera, shape):
     return PupilBoxes.for_camera(camera, shape)
@@ -169,14 +217,16 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
 
     w, h = scene.width, scene.height
     rng = np.random.default_rng(stochastic_seed(scene, index))
-    jitter = rng.random((h * w, 2))
-    lens = rng.random((h * w, 2)).astype(np.float32)
+    jitter, lens, shutter = sample_points(rng, h, w)
     moves = scene_moves(scene)
     k = subframes_for(max_motion_px) if moves else 1
-    slot = rng.integers(0, k, h * w)
+    slot = np.minimum((shutter * k).astype(np.int64), k - 1)
     mi_seeds = rng.integers(0, 2**31, k)
     mi_scene = load(scene, "scene", medium=medium)   # by default none: the runtime adds it
     thick = scene.camera.runtime_camera() if scene.camera.model == "thick" else None
+    if thick is not None:
+        film = np.stack([np.arange(h * w) % w + jitter[:, 0], np.arange(h * w) // w + jitter[:, 1]], axis=1)
+        lens = passing_lens(thick, (h, w), film, lens, rng)
     animator = Animator(scene, mi_scene) if moves else None
     sensor, integrator = mi_scene.sensors()[0], mi_scene.integrator()
     ids = {sh.id(): int(np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(sh)))[0]) for sh in mi_scene.shapes()}
@@ -200,9 +250,8 @@ def trace_samples(scene: Scene, index: int = 0, max_motion_px: float = 0.0, shad
         sampler = mi.load_dict({"type": "independent"})
         sampler.seed(int(mi_seeds[s]), int(lanes.size))
         if thick is not None:   # each channel's ray through the lens at its wavelength
-            film = np.stack([(lanes % w) + jitter[lanes, 0], (lanes // w) + jitter[lanes, 1]], axis=1)
             for c in (1, 0, 2):
-                ray_c, ok = thick_rays(thick, sensor, (h, w), film, lens[lanes], c, t_abs)
+                ray_c, ok = thick_rays(thick, sensor, (h, w), film[lanes], lens[lanes], c, t_abs)
                 if c == 1:   # the depth, hit and coverage of the middle wavelength's ray; where the
                     ray, seen = ray_c, ok[::shading_spp]   # lens blocks it the pixel is no sample
                 spec, _, _ = integrator.sample(mi_scene, sampler, ray_c, sensor.get_medium(), True)
@@ -269,7 +318,10 @@ def render_stochastic(scene: Scene, index: int = 0, max_motion_px: float = 0.0,
     tr = trace_samples(scene, index, max_motion_px, shading_spp, medium)
     lens, depth, t_frac = tr["lens"], tr["depth"], tr["t_frac"]
     u, v = lens_channels(scene, lens)
-    extra = {"lens.U": u.reshape(h, w), "lens.V": v.reshape(h, w), "time": t_frac.astype(np.float32).reshape(h, w)}
+    top = np.nextafter(np.float32(1.0), np.float32(0.0))
+    sub = np.minimum(tr["jitter"].astype(np.float32), top)
+    extra = {"lens.U": u.reshape(h, w), "lens.V": v.reshape(h, w), "time": t_frac.astype(np.float32).reshape(h, w),
+             "subpixel.X": sub[:, 0].reshape(h, w), "subpixel.Y": sub[:, 1].reshape(h, w)}
     if scene_moves(scene):
         flow = np.zeros((h * w, 2), np.float32)
         hit = np.isfinite(depth)

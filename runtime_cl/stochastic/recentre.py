@@ -34,7 +34,7 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 from runtime_cl.frame import Frame
-from runtime_cl.stochastic.samples import concentric_disc
+from runtime_cl.stochastic.samples import concentric_disc, film_points
 from runtime_cl.camera.exit_pupil import PupilBoxes
 from runtime_cl.stochastic.thick import is_thick, thick_positions
 
@@ -101,18 +101,18 @@ def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
     ----------
     depth : (H, W)
         Planar depth Z in metres of what each sample saw.
-    samples : (H, W, 3)
-        ``lens.U, lens.V, time`` (:func:`~runtime_cl.stochastic.samples.lens_time_samples`).
+    samples : (H, W, 3) or (H, W, 5)
+        ``lens.U, lens.V, time`` and optionally ``subpixel.X, subpixel.Y``
+        (:func:`~runtime_cl.stochastic.samples.lens_time_samples`).
     camera : runtime camera
         Its ``coc_radius_px(z, width)`` gives the signed CoC (0 for a pinhole).
     motion : (H, W, 2), optional
         ``motion.X, motion.Y`` in pixels over the shutter, Y up.
     """
-    h, w = np.shape(depth)
+    w = np.shape(depth)[1]
     dx, dy = concentric_disc(samples[..., 0], samples[..., 1])
     c = np.asarray(camera.coc_radius_px(np.asarray(depth, np.float64), w), np.float64)
-    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
-    return np.stack([xs - c * dx, ys - c * dy], axis=-1) - _motion_shift(samples, motion)
+    return film_points(samples) - np.stack([c * dx, c * dy], axis=-1) - _motion_shift(samples, motion)
 
 
 def _deposits(pos, w: int, h: int, footprint: str) -> tuple:
@@ -145,8 +145,8 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     ----------
     frame : Frame
         The 1-spp image: colour, depth Z of what each pixel's sample saw, optional motion and alpha.
-    samples : (H, W, 3) float32
-        Checked ``lens.U, lens.V, time`` in [0, 1).
+    samples : (H, W, 3) or (H, W, 5) float32
+        Checked ``lens.U, lens.V, time`` in [0, 1), and optionally ``subpixel.X, subpixel.Y``.
     camera : runtime camera
     coc_bin_px, motion_bin_px : float
         Samples landing on one pixel share an entry when their CoCs, and each component of their

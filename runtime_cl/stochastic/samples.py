@@ -11,7 +11,10 @@ times t over the shutter. Through a thick lens (camera ``"lens": "thick"``) ``le
 are instead the sample's exit-pupil box coordinates, from which the runtime re-traces its ray
 through the lens per channel (:mod:`runtime_cl.stochastic.thick`), and the lens disperses them:
 ``Z.R, Z.G, Z.B`` (:data:`CHANNEL_DEPTHS`, optional; a missing one is ``Z``) are the depths each
-channel's ray hit, so each channel's sample goes back to its own surface.
+channel's ray hit, so each channel's sample goes back to its own surface. ``subpixel.X,
+subpixel.Y`` (:data:`SUBPIXEL`, optional, both or neither) in [0, 1) are where in its pixel the
+sample's film point lies (x right, y down; missing: the pixel's centre, 0.5), so it goes back
+from there and not from the centre.
 """
 from __future__ import annotations
 
@@ -19,11 +22,12 @@ import numpy as np
 
 from runtime_cl.errors import InputError
 
-__all__ = ["CHANNELS", "CHANNEL_DEPTHS", "channel_depths", "concentric_disc", "inverse_concentric",
-           "lens_time_samples"]
+__all__ = ["CHANNELS", "CHANNEL_DEPTHS", "SUBPIXEL", "channel_depths", "concentric_disc", "film_points",
+           "inverse_concentric", "lens_time_samples"]
 
 CHANNELS = ("lens.U", "lens.V", "time")
 CHANNEL_DEPTHS = ("Z.R", "Z.G", "Z.B")
+SUBPIXEL = ("subpixel.X", "subpixel.Y")
 _FIX = ("write the pixel's lens sample (lens.U, lens.V) and its shutter time as a fraction of the shutter "
         "(time), each in [0, 1), e.g. with `splatlab stochastic SCENE`")
 
@@ -62,19 +66,28 @@ def inverse_concentric(dx, dy) -> tuple:
 
 
 def lens_time_samples(channels: dict, source: str, shape: tuple) -> np.ndarray:
-    """The checked ``(H, W, 3)`` float32 stack of :data:`CHANNELS` from ``channels`` (name -> (H, W)).
+    """The checked ``(H, W, 3)`` float32 stack of :data:`CHANNELS` from ``channels`` (name -> (H, W)),
+    ``(H, W, 5)`` with :data:`SUBPIXEL` after them when the image has those.
 
     Raises
     ------
     InputError
-        A channel is missing, of another size, not finite or outside [0, 1): one line naming
-        ``source``, the channel, the bad value and the fix.
+        A channel is missing (or one of :data:`SUBPIXEL` without the other), of another size, not
+        finite or outside [0, 1): one line naming ``source``, the channel, the bad value and the fix.
     """
     missing = [c for c in CHANNELS if c not in channels]
     if missing:
         raise InputError(f"{source}: channel(s) {missing} missing; a stochastic input needs {list(CHANNELS)}: {_FIX}")
-    out = np.empty(tuple(shape) + (3,), np.float32)
-    for k, name in enumerate(CHANNELS):
+    names = CHANNELS
+    if any(c in channels for c in SUBPIXEL):
+        lone = [c for c in SUBPIXEL if c not in channels]
+        if lone:
+            raise InputError(f"{source}: channel {lone[0]} missing beside {[c for c in SUBPIXEL if c in channels][0]}; "
+                             f"write both {list(SUBPIXEL)} (where in its pixel each sample lies, in [0, 1)) "
+                             "or neither (the pixel centres)")
+        names = CHANNELS + SUBPIXEL
+    out = np.empty(tuple(shape) + (len(names),), np.float32)
+    for k, name in enumerate(names):
         ch = np.asarray(channels[name], np.float32)
         if ch.shape != tuple(shape):
             raise InputError(f"{source}: channel {name} is {ch.shape}, the image is {tuple(shape)}; {_FIX}")
@@ -85,6 +98,16 @@ def lens_time_samples(channels: dict, source: str, shape: tuple) -> np.ndarray:
                              f"({int(bad.sum())} pixel(s)) lies outside [0, 1); {_FIX}")
         out[..., k] = ch
     return out
+
+
+def film_points(samples) -> np.ndarray:
+    """(H, W, 2) float64 film positions (x right, y down, pixel centres at i + 0.5) of the samples
+    of ``samples`` (:func:`lens_time_samples`): each pixel's ``subpixel.X, subpixel.Y`` or its
+    centre."""
+    h, w = np.shape(samples)[:2]
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    inside = np.asarray(samples, np.float64)[..., 3:5] if np.shape(samples)[-1] == 5 else 0.5
+    return np.stack([xs, ys], axis=-1) + inside
 
 
 def channel_depths(channels: dict, source: str, depth) -> np.ndarray | None:

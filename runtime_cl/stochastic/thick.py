@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from runtime_cl.camera.exit_pupil import PupilBoxes
+from runtime_cl.stochastic.samples import film_points
 
 __all__ = ["backward_rays", "is_thick", "ray_lines", "thick_positions"]
 
@@ -82,12 +83,11 @@ def ray_lines(camera, boxes: PupilBoxes, shape, film_xy, uv, channel) -> tuple:
 def thick_positions(depth, samples, camera, channel: int, boxes: PupilBoxes | None = None) -> np.ndarray:
     """(H, W, 2) float64 pinhole positions y' (as :func:`~runtime_cl.stochastic.recentre.
     pinhole_positions`) of every pixel's surface through ``camera`` in ``channel``: each pixel's
-    ray from its centre through its box sample (``samples[..., :2]``), at its depth; NaN where
-    the lens blocks the ray."""
+    ray from its sample's film point (its centre without ``subpixel.X, subpixel.Y``) through its
+    box sample (``samples[..., :2]``), at its depth; NaN where the lens blocks the ray."""
     h, w = np.shape(depth)
     boxes = boxes or PupilBoxes.for_camera(camera, (h, w))
-    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64) + 0.5
-    film = np.stack([xs.ravel(), ys.ravel()], axis=1)
+    film = film_points(samples).reshape(-1, 2)
     a, b, _ = ray_lines(camera, boxes, (h, w), film, np.asarray(samples, np.float64)[..., :2].reshape(-1, 2), channel)
     z = np.asarray(depth, np.float64).reshape(-1, 1)
     with np.errstate(divide="ignore", invalid="ignore"):

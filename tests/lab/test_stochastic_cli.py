@@ -16,6 +16,9 @@ def _write(path, **channels):
              "time": rng.random((12, 12), dtype=np.float32)}
     if "Z.R" in channels:   # a thick lens's per-channel depth (the camera header here is a thin lens's)
         extra["Z.R"] = np.full((12, 12), 2.0, np.float32)
+    for name in ("subpixel.X", "subpixel.Y"):
+        if name in channels:
+            extra[name] = np.full((12, 12), 0.5, np.float32)
     for name, value in channels.items():
         if value is None:
             del extra[name]
@@ -47,6 +50,8 @@ def test_render_a_stochastic_exr(work, method, capfd):
     ({"time": None}, ["channel(s) ['time'] missing", "shutter time"]),
     ({"Z.R": -1.0}, ["channel Z.R = -1.0", "pixel (x=5, y=3)", "planar depth in metres"]),
     ({"Z.R": float("nan")}, ["channel Z.R = nan", "is no depth"]),
+    ({"subpixel.X": 1.0, "subpixel.Y": 0.5}, ["channel subpixel.X = 1.0", "pixel (x=5, y=3)", "outside [0, 1)"]),
+    ({"subpixel.Y": 0.25}, ["channel subpixel.X missing beside subpixel.Y", "write both", "or neither"]),
 ])
 def test_bad_stochastic_exr(work, capfd, channels, needles):
     _write(work / "in.exr", **channels)

@@ -74,8 +74,9 @@ def test_a_stochastic_input_through_the_thick_lens_is_reconstructed(rain_report,
     """`splatlab stochastic` traces each pixel's three channel rays through the singlet, and
     `splatlab render --method stochastic_spreadlets` with the physical_lens database re-traces them
     to re-centre every channel (runtime_cl/stochastic/thick.py) and splats the aberrated PSFs: the
-    1-spp lens grain and the box samples the lens blocks go (SSIM against the 512-spp reference
-    0.083 -> 0.770 measured; from the pinhole input spreadlets score 0.822)."""
+    1-spp lens grain goes (SSIM against the 512-spp reference 0.318 -> 0.815 measured, 2026-12-05;
+    from the pinhole input spreadlets score 0.822; 0.083 -> 0.770 when the box samples the lens
+    blocked were left black)."""
     from lab.exr_io import read_rgb
     from lab.report.metrics import ssim
 
@@ -90,7 +91,7 @@ def test_a_stochastic_input_through_the_thick_lens_is_reconstructed(rain_report,
     (reference,) = Path(cache, "renders").glob("*/reference.exr")
     reference = read_rgb(reference)
     before, after = ssim(image.rgb, reference), ssim(read_rgb(out), reference)
-    assert after > 0.74 and after > before + 0.5, (before, after)
+    assert after > 0.79 and after > before + 0.4, (before, after)
 
 
 def test_a_five_blade_iris_in_the_thick_lens_runs_end_to_end(tmp_path, monkeypatch):

@@ -38,8 +38,8 @@ def test_concentric_map_is_mitsubas():
                          ids=["round", "heart", "iris"])
 def test_recentred_positions_are_the_pinhole_projections(aperture):
     """Independent check of the whole contract: Mitsuba's thin-lens rays hit points whose pinhole
-    projection is the runtime's y' (plus the sample's sub-pixel offset, which the runtime does not
-    know). A shaped aperture and an odd iris (neither symmetric under a half turn nor a mirror in
+    projection is the runtime's y' (from the sample's own film point: ``subpixel.X, subpixel.Y``).
+    A shaped aperture and an odd iris (neither symmetric under a half turn nor a mirror in
     x) are traced by the reference's own Python sensor: a lens point mirrored or turned would
     miss by up to the CoC."""
     scene = _tiny(aperture=aperture)
@@ -48,7 +48,8 @@ def test_recentred_positions_are_the_pinhole_projections(aperture):
     h, w = image.depth.shape
     samples = lens_time_samples(image.extra, "input", (h, w))
     camera = from_header(image.camera, "header")
-    y_prime = pinhole_positions(image.depth, samples, camera).reshape(-1, 2) + (tr["jitter"] - 0.5)
+    assert samples.shape == (h, w, 5)
+    y_prime = pinhole_positions(image.depth, samples, camera).reshape(-1, 2)
     hit = np.isfinite(tr["depth"])
     assert hit.mean() > 0.9
     err = np.abs(y_prime[hit] - project(scene, tr["points"][hit], 0.5))
@@ -68,24 +69,24 @@ def test_motion_input_has_times_and_motion():
 
 def test_thick_lens_samples_return_to_the_pinhole_projections():
     """The thick lens's contract, checked against Mitsuba's own intersections: each pixel's middle
-    wavelength ray, re-traced by the runtime from its film point and box sample
-    (:func:`runtime_cl.stochastic.thick.ray_lines`), is the line whose point at the depth the ray
-    hit is the pinhole projection of that hit point (the sub-pixel offset given, as it is not to
-    the runtime). A ray turned or mirrored would miss by up to the lens's blur."""
-    from runtime_cl.camera.exit_pupil import PupilBoxes
-    from runtime_cl.stochastic.thick import ray_lines
+    wavelength ray, re-traced by the runtime from the input's channels alone (its film point
+    ``subpixel.X, subpixel.Y`` and box sample ``lens.U, lens.V``:
+    :func:`runtime_cl.stochastic.thick.thick_positions`), is the line whose point at the depth the
+    ray hit is the pinhole projection of that hit point. A ray turned or mirrored would miss by up
+    to the lens's blur, one re-traced from the pixel centre by up to the lens's magnification of
+    half a pixel."""
+    from runtime_cl.stochastic.thick import thick_positions
 
     scene = load_scene(SCENES / "tiny_rain.toml")
     tr = trace_samples(scene)
-    h, w = scene.height, scene.width
-    camera = scene.camera.runtime_camera()
-    film = np.stack([np.arange(h * w) % w, np.arange(h * w) // w], axis=1) + tr["jitter"]
-    a, b, ok = ray_lines(camera, PupilBoxes.for_camera(camera, (h, w)), (h, w), film, tr["lens"], 1)
+    image = render_stochastic(scene)
+    h, w = image.depth.shape
+    samples = lens_time_samples(image.extra, "input", (h, w))
+    got = thick_positions(image.depth, samples, from_header(image.camera, "header"), 1).reshape(-1, 2)
     hit = np.isfinite(tr["depth"])
-    assert hit.mean() > 0.5 and np.array_equal(hit & ok, hit)   # a blocked ray hits nothing
-    got = a[hit] + b[hit] / tr["depth"][hit, None]
-    err = np.hypot(*(got - project(scene, tr["points"][hit], 0.5)).T)
-    assert err.max() < 1e-3, err.max()   # float32 Mitsuba rays and depths: 9e-5 px measured
+    assert hit.mean() > 0.5 and not np.isnan(got[hit]).any()   # the ray the input traced passes
+    err = np.hypot(*(got[hit] - project(scene, tr["points"][hit], 0.5)).T)
+    assert err.max() < 1e-3, err.max()   # float32 Mitsuba rays, depths and channels: 9e-5 px measured
 
 
 def test_each_channel_of_a_thick_lens_sample_returns_to_its_own_hit():
@@ -126,7 +127,9 @@ def test_thick_lens_recentres_each_channel_through_its_wavelength():
     """A thick camera's re-centring traces every channel at its own indices: one sample's three
     channels return to places up to a pixel apart (the singlet's lateral colour, undone), each
     channel's frames hold that channel alone with its own sample counts, and blocked rays are no
-    samples."""
+    samples: the input draws its box samples until the middle ray passes, so these are the few
+    re-traced from the pixel centre (the input's ray left from its sub-pixel point) or dispersed
+    past the stop."""
     from runtime_cl.frame import Frame
     from runtime_cl.stochastic.recentre import recentre
     from runtime_cl.stochastic.thick import thick_positions
@@ -138,14 +141,14 @@ def test_thick_lens_recentres_each_channel_through_its_wavelength():
     camera = from_header(image.camera, "header")
     red, blue = (thick_positions(image.depth, samples, camera, c) for c in (0, 2))
     apart = np.hypot(*(red - blue).reshape(-1, 2).T)
-    assert 0.5 < np.nanmax(apart) < 3.0 and np.isnan(apart).mean() > 0.1   # 1.2 px; vignetted corners
+    assert 0.5 < np.nanmax(apart) < 3.0 and 0.0 < np.isnan(apart).mean() < 0.05   # 1.2 px; 0.7 % blocked
     rec = recentre(Frame(image.rgb, image.depth, alpha=image.alpha), samples, camera)
     for frame, n in zip(rec.frames, rec.counts):
         assert n.shape == (h, w, 3) and np.count_nonzero(n.max(axis=(0, 1))) == 1   # one channel per frame
         c = int(np.argmax(n.max(axis=(0, 1))))
         assert not np.delete(np.asarray(frame.rgb), c, axis=2).any()
     total = sum(rec.counts).sum(axis=(0, 1))
-    assert np.all((0.5 * h * w < total) & (total < h * w))   # the blocked rays are left out
+    assert np.all((0.9 * h * w < total) & (total < h * w))   # the blocked rays are left out
 
 
 def test_a_thick_lens_that_blocks_every_ray_reconstructs_black():
@@ -189,7 +192,7 @@ def test_motion_recentring_reaches_the_mid_shutter_projection():
     samples = lens_time_samples(image.extra, "input", (h, w))
     motion = np.stack([image.extra["motion.X"], image.extra["motion.Y"]], axis=-1)
     y_prime = pinhole_positions(image.depth, samples, from_header(image.camera, "header"), motion)
-    y_prime = y_prime.reshape(-1, 2) + (tr["jitter"] - 0.5)
+    y_prime = y_prime.reshape(-1, 2)
     o, c = scene.camera.shutter
     mid = 0.5 * (o + c)
     truth = tr["points"].copy()

@@ -98,6 +98,12 @@ def test_bad_channels_name_the_channel_value_and_fix():
         lens_time_samples(bad, "in.exr", (4, 4))
     with pytest.raises(InputError, match=r"in\.exr: channel\(s\) \['time'\] missing"):
         lens_time_samples({k: good[k] for k in ("lens.U", "lens.V")}, "in.exr", (4, 4))
+    sub = dict(good, **{"subpixel.X": np.full((4, 4), 0.25), "subpixel.Y": np.full((4, 4), 0.75)})
+    assert lens_time_samples(sub, "in.exr", (4, 4)).shape == (4, 4, 5)
+    with pytest.raises(InputError, match=r"in\.exr: channel subpixel\.Y missing beside subpixel\.X; write both"):
+        lens_time_samples(dict(good, **{"subpixel.X": np.full((4, 4), 0.25)}), "in.exr", (4, 4))
+    with pytest.raises(InputError, match=r"samples: shape \(4, 4, 4\), need \(H, W, 3\)"):
+        Frame(np.ones((4, 4, 3)), np.ones((4, 4)), samples=np.zeros((4, 4, 4)))
     with pytest.raises(InputError, match="stochastic_splat.*needs the channels"):
         run_pass("stochastic_splat", Frame(np.ones((4, 4, 3)), np.ones((4, 4))), CAMERA, disc_database(4.0))
 

@@ -134,9 +134,9 @@ def thick_rays(camera, sensor, shape, film, lens, channel: int, t_abs: float) ->
 
 def sample_points(rng: np.random.Generator, h: int, w: int) -> tuple:
     """Every pixel's sub-pixel position, lens sample and shutter fraction, one point per pixel of a
-    scrambled 5-D Sobol net (pbrt-v4's image-wide Sobol sampling, Owen-style scrambled by scipy):
-    its first two coordinates on a square of 2^k pixels hold exactly one point in every pixel (a
-    (0, 2k, 2)-net), so the lens and time coordinates of neighbouring pixels are stratified
+    5-D Sobol net (pbrt-v4's image-wide Sobol sampling; scipy's linear matrix scrambling and
+    digital shift keep the net's strata): its first two coordinates on a square of 2^k pixels hold
+    exactly one point in every pixel (a (0, 2k, 2)-net), so the lens and time coordinates of neighbouring pixels are stratified
     against their positions, as a stochastic rasterizer's sample pattern is, while each pixel's
     point stays uniform (unbiased). Returns ``jitter`` (N, 2) float64 in [0, 1), ``lens`` (N, 2)
     float32 and ``shutter`` (N,) float64, row-major."""

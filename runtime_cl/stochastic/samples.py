@@ -30,6 +30,7 @@ CHANNEL_DEPTHS = ("Z.R", "Z.G", "Z.B")
 SUBPIXEL = ("subpixel.X", "subpixel.Y")
 _FIX = ("write the pixel's lens sample (lens.U, lens.V) and its shutter time as a fraction of the shutter "
         "(time), each in [0, 1), e.g. with `splatlab stochastic SCENE`")
+_FIX_SUBPIXEL = f"write both {list(SUBPIXEL)}: where in its pixel each sample lies, x right and y down, in [0, 1)"
 
 
 def concentric_disc(u, v) -> tuple:
@@ -83,19 +84,19 @@ def lens_time_samples(channels: dict, source: str, shape: tuple) -> np.ndarray:
         lone = [c for c in SUBPIXEL if c not in channels]
         if lone:
             raise InputError(f"{source}: channel {lone[0]} missing beside {[c for c in SUBPIXEL if c in channels][0]}; "
-                             f"write both {list(SUBPIXEL)} (where in its pixel each sample lies, in [0, 1)) "
-                             "or neither (the pixel centres)")
+                             f"{_FIX_SUBPIXEL} or neither (the pixel centres)")
         names = CHANNELS + SUBPIXEL
     out = np.empty(tuple(shape) + (len(names),), np.float32)
     for k, name in enumerate(names):
+        fix = _FIX_SUBPIXEL if name in SUBPIXEL else _FIX
         ch = np.asarray(channels[name], np.float32)
         if ch.shape != tuple(shape):
-            raise InputError(f"{source}: channel {name} is {ch.shape}, the image is {tuple(shape)}; {_FIX}")
+            raise InputError(f"{source}: channel {name} is {ch.shape}, the image is {tuple(shape)}; {fix}")
         bad = ~(np.isfinite(ch) & (ch >= 0.0) & (ch < 1.0))
         if bad.any():
             y, x = np.argwhere(bad)[0]
             raise InputError(f"{source}: channel {name} = {float(ch[y, x])!r} at pixel (x={x}, y={y}) "
-                             f"({int(bad.sum())} pixel(s)) lies outside [0, 1); {_FIX}")
+                             f"({int(bad.sum())} pixel(s)) lies outside [0, 1); {fix}")
         out[..., k] = ch
     return out
 

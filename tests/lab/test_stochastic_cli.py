@@ -50,7 +50,8 @@ def test_render_a_stochastic_exr(work, method, capfd):
     ({"time": None}, ["channel(s) ['time'] missing", "shutter time"]),
     ({"Z.R": -1.0}, ["channel Z.R = -1.0", "pixel (x=5, y=3)", "planar depth in metres"]),
     ({"Z.R": float("nan")}, ["channel Z.R = nan", "is no depth"]),
-    ({"subpixel.X": 1.0, "subpixel.Y": 0.5}, ["channel subpixel.X = 1.0", "pixel (x=5, y=3)", "outside [0, 1)"]),
+    ({"subpixel.X": 1.0, "subpixel.Y": 0.5}, ["channel subpixel.X = 1.0", "pixel (x=5, y=3)", "outside [0, 1)",
+                                                "where in its pixel"]),
     ({"subpixel.Y": 0.25}, ["channel subpixel.X missing beside subpixel.Y", "write both", "or neither"]),
 ])
 def test_bad_stochastic_exr(work, capfd, channels, needles):

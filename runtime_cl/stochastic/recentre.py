@@ -172,7 +172,8 @@ def recentre(frame: Frame, samples, camera, coc_bin_px: float = 1.0, motion_bin_
     """
     if footprint not in FOOTPRINTS:
         raise InputError(f"footprint = {footprint!r}: give one of {list(FOOTPRINTS)}")
-    options = dict(coc_bin_px=coc_bin_px, motion_bin_px=motion_bin_px, footprint=footprint, keep_outside=keep_outside)
+    options = dict(coc_bin_px=coc_bin_px, motion_bin_px=motion_bin_px, footprint=footprint, keep_outside=keep_outside,
+                   film=film_points(samples))
     motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
     if not is_thick(camera):
         return _recentre(frame, pinhole_positions(frame.depth, samples, camera, motion), camera, **options)
@@ -210,14 +211,15 @@ def _motion_shift(samples, motion) -> np.ndarray | float:
 
 
 def _recentre(frame: Frame, pos: np.ndarray, camera, coc_bin_px: float, motion_bin_px: float, footprint: str,
-              keep_outside: bool) -> Recentred:
-    """:func:`recentre` of the samples at pinhole positions ``pos`` ((H, W, 2); NaN: no sample)."""
+              keep_outside: bool, film: np.ndarray) -> Recentred:
+    """:func:`recentre` of the samples at pinhole positions ``pos`` ((H, W, 2); NaN: no sample) seen
+    at film positions ``film`` ((H, W, 2))."""
     rgb = np.asarray(frame.rgb, np.float32)
     h0, w0, nc = rgb.shape
     depth = np.asarray(frame.depth, np.float64)
     alpha = frame.coverage()
     motion = None if frame.motion is None else np.asarray(frame.motion, np.float64)
-    shift = pos - (np.stack(np.mgrid[0:h0, 0:w0][::-1], axis=-1) + 0.5)
+    shift = pos - film
     largest = float(np.nanmax(np.abs(shift), initial=0.0))
     # (+1: a bilinear footprint's neighbour; nothing moved, nothing leaves: a still pinhole)
     margin = min(math.ceil(largest) + 1, max(h0, w0) // 2) if keep_outside and _widens(camera) and largest > 0 else 0

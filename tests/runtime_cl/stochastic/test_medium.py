@@ -11,19 +11,21 @@ from runtime_cl.frame import Frame
 from runtime_cl.passes import run_pass
 
 
-def _frame(rng, h=20, w=24):
-    samples = rng.random((h, w, 3)).astype(np.float32)    # a pinhole: the lens samples move nothing
+def _frame(rng, h=20, w=24, channels=3):
+    # a pinhole: the lens samples move nothing (nor do sub-pixel positions, channels = 5)
+    samples = rng.random((h, w, channels)).astype(np.float32)
     return Frame(rng.random((h, w, 3)).astype(np.float32), rng.uniform(1.2, 2.4, (h, w)).astype(np.float32),
                  samples=samples)
 
 
+@pytest.mark.parametrize("channels", [3, 5])
 @pytest.mark.parametrize("name, plain", [("stochastic_spreadlets", "spreadlets"), ("stochastic_splat", "splat")])
-def test_a_still_pinhole_through_fog_is_the_plain_render(name, plain):
+def test_a_still_pinhole_through_fog_is_the_plain_render(name, plain, channels):
     """Every sample of a still pinhole re-centres onto its own pixel, so the reconstruction is the
     plain pass's fog, far field included, and darker than the input where the medium absorbs."""
     rng = np.random.default_rng(7)
     near, far = far_database(rng, model="volume", psf_resolution=15, radius=7), far_database(rng, hole=5)
-    frame, camera = _frame(rng), Pinhole(fov_deg=40.0)
+    frame, camera = _frame(rng, channels=channels), Pinhole(fov_deg=40.0)
     got, _ = run_pass(name, frame, camera, near, far_field=far)
     want, _ = run_pass(plain, frame, camera, near, far_field=far)
     without, _ = run_pass(name, frame, camera, near)

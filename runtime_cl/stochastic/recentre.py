@@ -10,8 +10,10 @@ shutter time t saw a surface whose pinhole position at mid-shutter is
 shutter in film axes). Splatting each pixel's PSF around y' instead of y draws the blur once:
 the samples of one surface point, spread over its CoC in the input, all return to one place.
 
-Samples are rounded to the nearest pixel (the box filter of a pinhole image) and summed, not
-averaged: a pixel of the input is one sample of its pinhole point's light, so k samples landing
+With the default footprint a sample stands for its pixel's box moved by its shift y' - y (y its
+film point: the ``subpixel`` channels, or the pixel centre), rounded to the nearest pixel (the
+box filter of a pinhole image), so an in-focus sample stays whole on its own pixel; ``bilinear``
+lays it on the four pixels around its own y'. Samples are summed, not averaged: a pixel of the input is one sample of its pinhole point's light, so k samples landing
 on one pixel carry k pixels' worth of that light, and a pixel no sample lands on is dark. A
 target pixel can receive samples of different surfaces (an edge seen past a blurred occluder):
 samples whose CoCs and motions agree within ``coc_bin_px`` and ``motion_bin_px`` share one entry
@@ -117,9 +119,9 @@ def pinhole_positions(depth, samples, camera, motion=None) -> np.ndarray:
 
 def _deposits(pos, w: int, h: int, footprint: str) -> tuple:
     """Where each sample's light goes: (source index, target pixel, weight) per deposit, inside
-    the image. ``"nearest"``: the pixel holding y'; ``"bilinear"``: the four pixels around y',
-    weighted by the tent of one pixel (no sample is moved by rounding; a sample at a pixel centre,
-    as every in-focus one is, stays whole on its pixel)."""
+    the image. ``"nearest"``: the pixel holding ``pos`` (the caller gives its pixel centre moved by
+    the sample's shift); ``"bilinear"``: the four pixels around ``pos`` (the sample's own y'),
+    weighted by the tent of one pixel (no sample is moved by rounding)."""
     if footprint == "nearest":
         corners = [(np.floor(pos), np.ones(len(pos)))]
     else:
@@ -224,6 +226,8 @@ def _recentre(frame: Frame, pos: np.ndarray, camera, coc_bin_px: float, motion_b
     # (+1: a bilinear footprint's neighbour; nothing moved, nothing leaves: a still pinhole)
     margin = min(math.ceil(largest) + 1, max(h0, w0) // 2) if keep_outside and _widens(camera) and largest > 0 else 0
     h, w = h0 + 2 * margin, w0 + 2 * margin
+    if footprint == "nearest":   # the sample stands for its pixel's box, moved: in focus it stays home
+        pos = shift + (np.stack(np.mgrid[0:h0, 0:w0][::-1], axis=-1) + 0.5)
     src, target, weight = _deposits(pos.reshape(-1, 2) + margin, w, h, footprint)
     coc = np.asarray(camera.coc_radius_px(depth, w0), np.float64).ravel()[src]
     # one entry per (target pixel, CoC group, motion group): sums of colour and alpha, means of

@@ -1,4 +1,4 @@
-"""Where the stochastic input's samples come from: one point of a scrambled Sobol net per pixel,
+"""Where the stochastic input's samples come from: one point of an Owen-scrambled Sobol net per pixel,
 and a thick lens's box samples drawn until its ray passes."""
 from __future__ import annotations
 

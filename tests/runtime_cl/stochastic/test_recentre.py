@@ -249,3 +249,22 @@ def test_a_widened_camera_keeps_the_pixel_pitch():
     assert widened(pin, 24, 3).focal_px(30) == pytest.approx(pin.focal_px(24), rel=1e-12)
     assert widened(thin, 24, 3).coc_radius_px(3.0, 30) == pytest.approx(thin.coc_radius_px(3.0, 24), rel=1e-12)
     assert widened(pin, 24, 0) is pin
+
+
+def test_a_sample_in_focus_stays_home_nearest_and_lies_at_its_film_point_bilinear():
+    """``subpixel.X, subpixel.Y`` = (0.9, 0.1) in focus: the nearest footprint keeps each sample
+    whole on its own pixel (its box, moved by nothing); the bilinear one lays it at its film point,
+    0.4 px right of and 0.4 px above its pixel's centre."""
+    h = w = 8
+    samples = np.zeros((h, w, 5), np.float32)
+    samples[..., :3] = 0.5
+    samples[..., 3], samples[..., 4] = 0.9, 0.1
+    rgb = np.zeros((h, w, 1), np.float32)
+    rgb[3, 3] = 1.0
+    frame = Frame(rgb, np.full((h, w), CAMERA.focus_distance_m, np.float32), samples=samples)
+    (near,) = recentre(frame, samples, CAMERA).frames
+    assert near.rgb[3, 3, 0] == 1.0 and near.rgb.sum() == 1.0
+    (tent,) = recentre(frame, samples, CAMERA, footprint="bilinear").frames
+    want = np.zeros((h, w))
+    want[3, 3], want[3, 4], want[2, 3], want[2, 4] = 0.36, 0.24, 0.24, 0.16
+    np.testing.assert_allclose(tent.rgb[..., 0], want, atol=1e-6)

@@ -2,9 +2,9 @@
 the scene's own camera, with the pixel's lens sample and shutter time as channels.
 
 Each pixel gets its own sub-pixel position (the box filter the references use), lens sample
-(u, v) and shutter time t, one point per pixel of an image-wide Owen-scrambled Sobol net
-(:func:`sample_points`: neighbouring pixels share out the lens and the shutter, as a stochastic
-rasterizer's sample pattern does), and one path traced with the scene's integrator (``path``)
+(u, v) and shutter time t, from an Owen-scrambled Sobol sequence laid over the image in shuffled
+Morton order (:mod:`lab.reference.sampling`: neighbouring pixels share out the lens and the
+shutter, as a stochastic rasterizer's sample pattern does), and one path traced with the scene's integrator (``path``)
 through the camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped aperture the
 reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A ``[medium]`` is
 left out, as from the labelled input: the runtime's volume PSFs add it (tracing it here would add
@@ -50,6 +50,7 @@ from ..scene import Scene
 from .backend import mitsuba
 from .motion import Animator, project, subframes_for
 from .render import load
+from .sampling import sample_points
 
 __all__ = ["lens_channels", "render_stochastic", "stochastic_seed", "thick_rays", "trace_samples"]
 
@@ -130,51 +131,6 @@ def thick_rays(camera, sensor, shape, film, lens, channel: int, t_abs: float) ->
     to_world = sensor.world_transform()
     ray = mi.Ray3f(mi.Point3f(to_world @ origin), mi.Vector3f(to_world @ direction), mi.Float(t_abs), mi.Color0f())
     return mi.RayDifferential3f(ray), ok
-
-
-def sample_points(rng: np.random.Generator, h: int, w: int) -> tuple:
-    """Every pixel's sub-pixel position, lens sample and shutter fraction, one point per pixel of an
-    Owen-scrambled 5-D Sobol net (pbrt-v4's image-wide Sobol sampling): its first two coordinates
-    on a square of 2^k pixels hold exactly one point in every pixel (a (0, 2k, 2)-net), so the lens
-    and time coordinates of neighbouring pixels are stratified against their positions, as a
-    stochastic rasterizer's sample pattern is, while each pixel's point stays uniform (unbiased).
-    The nested (Owen) scrambling (:func:`_owen`) keeps those strata and breaks the lattice that
-    an unscrambled or linearly scrambled net draws across a defocused edge (regular stripes a
-    denoiser takes for texture). Returns ``jitter`` (N, 2) float64 in [0, 1), ``lens`` (N, 2)
-    float32 and ``shutter`` (N,) float64, row-major."""
-    from scipy.stats import qmc
-
-    side = 1 << max(int(np.ceil(np.log2(max(h, w)))), 0)
-    raw = qmc.Sobol(5, scramble=False, bits=32).random_base2(2 * int(np.log2(side)))
-    seeds = rng.integers(0, 2**32, 5, dtype=np.uint64).astype(np.uint32)
-    pts = np.stack([_owen((raw[:, d] * 2.0**32).astype(np.uint64).astype(np.uint32), seeds[d]) for d in range(5)],
-                   axis=1) / 2.0**32
-    cell = np.floor(pts[:, :2] * side).astype(np.int64)
-    inside = (cell[:, 0] < w) & (cell[:, 1] < h)
-    order = np.argsort(cell[inside, 1] * w + cell[inside, 0])
-    pts, cell = pts[inside][order], cell[inside][order]
-    if not np.array_equal(cell[:, 1] * w + cell[:, 0], np.arange(h * w)):   # the net's one point per pixel
-        raise AssertionError(f"the Sobol net left a pixel of the {w}x{h} image without its one point")
-    top = np.nextafter(np.float32(1.0), np.float32(0.0))
-    return (pts[:, :2] * side - cell, np.minimum(pts[:, 2:4].astype(np.float32), top), pts[:, 4])
-
-
-_REVERSED_BYTE = np.array([int(f"{i:08b}"[::-1], 2) for i in range(256)], np.uint32)
-
-
-def _reverse_bits(x: np.ndarray) -> np.ndarray:
-    r = _REVERSED_BYTE
-    return (r[x & 0xFF] << 24) | (r[(x >> 8) & 0xFF] << 16) | (r[(x >> 16) & 0xFF] << 8) | r[x >> 24]
-
-
-def _owen(x: np.ndarray, seed: np.uint32) -> np.ndarray:
-    """Nested uniform (Owen) scrambling of the 32-bit fractions ``x`` (uint32): Burley's hash
-    (JCGT 2020; Laine and Karras's permutation on the bit-reversed value), where each output bit
-    depends on the bits above it only, so every elementary interval's points stay in one."""
-    x = _reverse_bits(x) + seed
-    for k in (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6):
-        x ^= x * np.uint32(k)
-    return _reverse_bits(x)
 
 
 def passing_lens(camera, shape: tuple, film: np.ndarray, lens: np.ndarray, rng: np.random.Generator,

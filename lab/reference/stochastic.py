@@ -1,31 +1,31 @@
 """The stochastic-framebuffer input (LSR18 6.2, Fig. 9's 1-spp input): one path per pixel through
 the scene's own camera, with the pixel's lens sample and shutter time as channels.
 
-Each pixel gets its own sub-pixel position (the box filter the references use), lens sample
-(u, v) and shutter time t, from an Owen-scrambled Sobol sequence laid over the image in shuffled
-Morton order (:mod:`lab.reference.sampling`: neighbouring pixels share out the lens and the
-shutter, as a stochastic rasterizer's sample pattern does), and one path traced with the scene's integrator (``path``)
-through the camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped aperture the
-reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A ``[medium]`` is
+Each pixel gets its own sub-pixel position (the box filter the references use), lens sample (u, v)
+and shutter time t, from an Owen-scrambled Sobol sequence laid over the image in shuffled Morton
+order (:mod:`lab.reference.sampling`: neighbouring pixels share out the lens and the shutter, as a
+stochastic rasterizer's sample pattern does), and one path traced with the scene's integrator
+(``path``) through the camera's own Mitsuba sensor (``thinlens``; with an iris or a shaped aperture
+the reference's own sensor, :mod:`lab.reference.aperture_lens`; or the pinhole). A ``[medium]`` is
 left out, as from the labelled input: the runtime's volume PSFs add it (tracing it here would add
 it twice). A thick lens's pixel sends one ray per channel, through the same exit-pupil box sample
 at the channel's wavelength (drawn again until the lens passes the middle ray:
 :func:`passing_lens`), traced backward through the lens as the runtime re-traces it to re-centre
-the sample (:mod:`runtime_cl.stochastic.thick`); R, G and B are the three rays' radiances, and Z,
-A and the motion are the middle (510 nm) ray's; ``Z.R`` and ``Z.B`` are the depths the other two
-rays hit (dispersed by the lens, a ray can pass a small drop that the 510 nm one hits: its sample
-goes back to the pinhole position of its own hit). A ray the lens blocks adds nothing (its
-channel is 0). Mitsuba 3.9.1 cannot move shapes during a launch, so, as for the motion reference
-(:mod:`lab.reference.motion`), the shutter is cut into sub-frames at most a pixel of motion
-apart: a pixel's time picks its sub-frame, and each sub-frame traces only its own pixels (one
-path per pixel in all). ``time`` is the sub-frame's time, the time the path was traced at.
+the sample (:mod:`runtime_cl.stochastic.thick`); R, G and B are the three rays' radiances, and Z, A
+and the motion are the middle (510 nm) ray's; ``Z.R`` and ``Z.B`` are the depths the other two rays
+hit (dispersed by the lens, a ray can pass a small drop that the 510 nm one hits: its sample goes
+back to the pinhole position of its own hit). A ray the lens blocks adds nothing (its channel is
+0). Mitsuba 3.9.1 cannot move shapes during a launch, so, as for the motion reference
+(:mod:`lab.reference.motion`), the shutter is cut into sub-frames at most a pixel of motion apart:
+a pixel's time picks its sub-frame, and each sub-frame traces only its own pixels (one path per
+pixel in all). ``time`` is the sub-frame's time, the time the path was traced at.
 
 Channels written (the contract of :mod:`runtime_cl.stochastic.samples`): R, G, B (the path's
 radiance), A (1 where the primary ray hits a surface), Z (the planar depth of that hit from the
 camera at time t), ``lens.U, lens.V`` (the lens point in the film's axes, :func:`lens_channels`),
 ``time`` and ``subpixel.X, subpixel.Y`` (the sample's place in its pixel); with motion also
-``motion.X, motion.Y`` (the hit point's chord from shutter open to close, as the labelled
-input's); through a thick lens also ``Z.R, Z.B`` (:data:`runtime_cl.stochastic.samples.CHANNEL_DEPTHS`).
+``motion.X, motion.Y`` (the hit point's chord from shutter open to close, as the labelled input's);
+through a thick lens also ``Z.R, Z.B`` (:data:`runtime_cl.stochastic.samples.CHANNEL_DEPTHS`).
 
 ``shading_spp`` > 1 traces that many paths from each pixel's one camera ray (same sub-pixel
 position, lens sample and time) and averages them: one *visibility* sample per pixel with

@@ -11,15 +11,15 @@ shutter in film axes). Splatting each pixel's PSF around y' instead of y draws t
 the samples of one surface point, spread over its CoC in the input, all return to one place.
 
 With the default footprint a sample stands for its pixel's box moved by its shift y' - y (y its
-film point: the ``subpixel`` channels, or the pixel centre), rounded to the nearest pixel (the
-box filter of a pinhole image), so an in-focus sample stays whole on its own pixel; ``bilinear``
-lays it on the four pixels around its own y'. Samples are summed, not averaged: a pixel of the input is one sample of its pinhole point's light, so k samples landing
-on one pixel carry k pixels' worth of that light, and a pixel no sample lands on is dark. A
-target pixel can receive samples of different surfaces (an edge seen past a blurred occluder):
-samples whose CoCs and motions agree within ``coc_bin_px`` and ``motion_bin_px`` share one entry
-(their depth and motion averaged);
-the others go to further frames (*slots*), so each surface keeps its own PSF. The frames are
-splatted separately and summed (splatting is linear).
+film point: the ``subpixel`` channels, or the pixel centre), rounded to the nearest pixel (the box
+filter of a pinhole image), so an in-focus sample stays whole on its own pixel; ``bilinear`` lays
+it on the four pixels around its own y'. Samples are summed, not averaged: a pixel of the input is
+one sample of its pinhole point's light, so k samples landing on one pixel carry k pixels' worth of
+that light, and a pixel no sample lands on is dark. A target pixel can receive samples of different
+surfaces (an edge seen past a blurred occluder): samples whose CoCs and motions agree within
+``coc_bin_px`` and ``motion_bin_px`` share one entry (their depth and motion averaged); the others
+go to further frames (*slots*), so each surface keeps its own PSF. The frames are splatted
+separately and summed (splatting is linear).
 
 Samples whose y' leaves the image saw a surface outside the frame through the lens (a lamp just
 above it, whose bokeh reaches in): with ``margin`` the frames are that much wider on every side,
